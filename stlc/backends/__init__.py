@@ -1,0 +1,1 @@
+"""Solver backends: the CasADi/IPOPT NLP and the cvxpy/HiGHS MILP seed."""

@@ -1,0 +1,215 @@
+"""Diagnostics: source spans, registered error codes and rustc-style rendering.
+
+Every error the front end reports is a ``Diagnostic`` with a registered code
+(``STL0xx`` syntax, ``STL1xx`` names, ``STL2xx`` types and units, ``STL3xx`` time,
+``STL4xx`` backend applicability, ``STL5xx`` solve outcomes, ``STL6xx`` input files).
+A pass collects all of its diagnostics; ``render`` prints them as
+
+    file:line:col: error[STL204]: unit mismatch: expected a time, found a length
+       |
+     7 |   horizon = 17 m
+       |             ^^^^
+       = help: write the horizon in seconds, e.g. `17 s`
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+from dataclasses import dataclass, field
+
+#: every code the tool can emit, with a one-line description (README lists these)
+CODES: dict[str, str] = {
+    # syntax
+    "STL001": "unexpected character",
+    "STL002": "unexpected token",
+    "STL003": "unexpected end of file",
+    "STL004": "nesting too deep",
+    "STL005": "file is not valid UTF-8 text",
+    "STL006": "line too long",
+    # names
+    "STL101": "unknown name",
+    "STL102": "duplicate definition",
+    "STL103": "unknown field",
+    "STL104": "missing required field",
+    "STL105": "unknown vehicle model",
+    "STL106": "named spec used before it is defined, or recursively",
+    "STL107": "unknown function",
+    "STL108": "wrong kind of declaration here",
+    "STL109": "no mission or spec to work on",
+    # types and units
+    "STL201": "expected a formula, found a number",
+    "STL202": "expected a number, found a formula",
+    "STL203": "unknown unit",
+    "STL204": "unit mismatch",
+    "STL205": "wrong vector size",
+    "STL206": "wrong number of arguments",
+    "STL207": "value out of range",
+    "STL208": "expected a region",
+    "STL209": "invalid covariance matrix",
+    "STL210": "expected a constant value",
+    "STL211": "empty region",
+    # time
+    "STL301": "negative time bound",
+    "STL302": "interval bounds out of order",
+    "STL303": "interval not aligned to the mission step",
+    "STL304": "formula reaches beyond the mission horizon",
+    "STL305": "invalid horizon or step",
+    # backend applicability
+    "STL401": "the backend does not support this construct",
+    "STL402": "vehicle start state violates its bounds",
+    # solve outcomes
+    "STL501": "no satisfying plan found",
+    "STL502": "the solver failed",
+    # input files (traces, trajectories)
+    "STL601": "cannot read file",
+    "STL602": "malformed trace",
+    "STL603": "trace is missing a signal",
+    "STL604": "trace time column is not uniform",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Span:
+    """A region of a source file: 1-based line/column of start and end (end exclusive)."""
+
+    file: str
+    line: int
+    col: int
+    end_line: int
+    end_col: int
+
+    @staticmethod
+    def none() -> Span:
+        return Span("", 0, 0, 0, 0)
+
+    @property
+    def known(self) -> bool:
+        return self.line > 0
+
+    def to(self, other: Span) -> Span:
+        if not self.known:
+            return other
+        if not other.known:
+            return self
+        return Span(self.file, self.line, self.col, other.end_line, other.end_col)
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    code: str
+    message: str
+    span: Span
+    help: str | None = None
+    notes: tuple[str, ...] = ()
+    severity: str = "error"
+
+    def __post_init__(self) -> None:
+        if self.code not in CODES:
+            raise ValueError(f"unregistered diagnostic code {self.code}")
+
+    def sort_key(self) -> tuple:
+        return (self.span.file, self.span.line, self.span.col, self.code, self.message)
+
+    def to_json(self) -> dict:
+        return {
+            "code": self.code,
+            "severity": self.severity,
+            "message": self.message,
+            "file": self.span.file,
+            "line": self.span.line,
+            "col": self.span.col,
+            "end_line": self.span.end_line,
+            "end_col": self.span.end_col,
+            "help": self.help,
+            "notes": list(self.notes),
+        }
+
+
+class StlcError(Exception):
+    """Raised by a pass that cannot go on; carries every diagnostic collected so far."""
+
+    def __init__(self, diagnostics: list[Diagnostic]):
+        self.diagnostics = sorted_unique(diagnostics)
+        super().__init__("\n".join(d.message for d in self.diagnostics))
+
+
+def sorted_unique(diags: list[Diagnostic]) -> list[Diagnostic]:
+    seen: set[tuple] = set()
+    out = []
+    for d in sorted(diags, key=Diagnostic.sort_key):
+        k = d.sort_key()
+        if k not in seen:
+            seen.add(k)
+            out.append(d)
+    return out
+
+
+@dataclass
+class Collector:
+    """Accumulates diagnostics during a pass."""
+
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    def error(self, code: str, message: str, span: Span, help: str | None = None,
+              notes: tuple[str, ...] = ()) -> None:
+        self.diagnostics.append(Diagnostic(code, message, span, help, notes))
+
+    @property
+    def failed(self) -> bool:
+        return any(d.severity == "error" for d in self.diagnostics)
+
+    def raise_if_failed(self) -> None:
+        if self.failed:
+            raise StlcError(self.diagnostics)
+
+
+def did_you_mean(name: str, candidates) -> str | None:
+    """A "did you mean `x`?" hint by edit distance (Elm's nearbyNames)."""
+    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
+    if not close:
+        low = {c.lower(): c for c in candidates}
+        if name.lower() in low:
+            close = [low[name.lower()]]
+    return f"did you mean `{close[0]}`?" if close else None
+
+
+MAX_SHOWN_LINE = 200
+
+
+def render(d: Diagnostic, sources: dict[str, str] | None = None) -> str:
+    """Render one diagnostic like rustc/ruff; ``sources`` maps file name to its text."""
+    s = d.span
+    head = f"{s.file or '<input>'}:{s.line}:{s.col}: {d.severity}[{d.code}]: {d.message}"
+    lines = [head]
+    text = (sources or {}).get(s.file)
+    if text is not None and s.known:
+        src_lines = text.splitlines()
+        if 0 < s.line <= len(src_lines):
+            src = src_lines[s.line - 1].expandtabs(1)
+            col0 = s.col - 1
+            width = (s.end_col - s.col) if s.end_line == s.line else len(src) - col0
+            width = max(1, width)
+            if len(src) > MAX_SHOWN_LINE:  # keep very long lines readable
+                start = max(0, col0 - 40)
+                src = ("…" if start else "") + src[start:start + MAX_SHOWN_LINE] + "…"
+                col0 = col0 - start + (1 if start else 0)
+                width = min(width, MAX_SHOWN_LINE)
+            gutter = str(s.line)
+            pad = " " * len(gutter)
+            lines.append(f"{pad} |")
+            lines.append(f"{gutter} | {src}")
+            lines.append(f"{pad} | {' ' * col0}{'^' * width}")
+    for n in d.notes:
+        lines.append(f"  = note: {n}")
+    if d.help:
+        lines.append(f"  = help: {d.help}")
+    return "\n".join(lines)
+
+
+def render_all(diags: list[Diagnostic], sources: dict[str, str] | None = None) -> str:
+    return "\n\n".join(render(d, sources) for d in diags)
+
+
+def to_json(diags: list[Diagnostic]) -> str:
+    return json.dumps({"diagnostics": [d.to_json() for d in diags]}, indent=2)

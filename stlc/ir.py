@@ -1,0 +1,326 @@
+"""Typed intermediate representation of STL formulas and the normaliser.
+
+The checker lowers the surface AST into this IR: every expression is a *scalar*
+tree in SI units over three kinds of leaves,
+
+* ``Sig(name)``   — a sampled signal channel (``"x"``, ``"uav1.pos.x"``, ``"uav1.force.3"``),
+* ``Param(name)`` — a scenario quantity that is fixed for a plan but may be uncertain
+                    (``"operator.pos.x"``, ``"operator.att.z"``),
+* ``Const(value)``.
+
+Vectors, regions, quantifiers and named specs are gone by the time we get here: a box
+membership is an ``And`` of scalar predicates, ``forall d in team`` is an ``And`` over the
+team, a reference to a named spec is its (already lowered) formula.  Time bounds are kept
+in seconds; a ``TimeGrid`` turns them into sample indices.
+
+Every backend (exact monitor, numpy smooth reference, CasADi NLP) interprets the same IR.
+``normalize`` desugars ``Implies``, pushes ``Not`` down to predicates (negation normal
+form, adding ``Release`` as the dual of ``Until``) and flattens nested ``And``/``Or``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from stlc.diagnostics import Span
+
+NO_SPAN = Span.none()
+
+# --------------------------------------------------------------------------- expressions
+
+
+@dataclass(frozen=True, slots=True)
+class Const:
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class Sig:
+    name: str
+
+
+@dataclass(frozen=True, slots=True)
+class Param:
+    name: str
+
+
+@dataclass(frozen=True, slots=True)
+class Neg:
+    arg: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Bin:
+    """Binary arithmetic; ``op`` is one of ``+ - * / ^``."""
+
+    op: str
+    left: Expr
+    right: Expr
+
+
+#: unary functions allowed in ``Call``: abs sqrt sin cos exp log
+#: n-ary: min max; binary: atan2; ``angdiff(a, b)`` = wrapped a - b in (-pi, pi]
+CALLS_1 = ("abs", "sqrt", "sin", "cos", "exp", "log")
+CALLS_N = ("min", "max", "atan2", "angdiff")
+
+
+@dataclass(frozen=True, slots=True)
+class Call:
+    fn: str
+    args: tuple[Expr, ...]
+
+
+Expr = Const | Sig | Param | Neg | Bin | Call
+
+# --------------------------------------------------------------------------- formulas
+
+
+@dataclass(frozen=True, slots=True)
+class Pred:
+    """Atomic predicate ``expr >= 0``; its robustness is the value of ``expr``.
+
+    ``label`` is the human-readable source text (e.g. ``"uav1.pos.z <= 2.5"``) used by
+    reports to say which predicate binds.
+    """
+
+    expr: Expr
+    label: str = ""
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class TrueF:
+    """The constant ``true`` (robustness +inf); ``FalseF`` is its negation."""
+
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class FalseF:
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Not:
+    arg: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class And:
+    args: tuple[Formula, ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Or:
+    args: tuple[Formula, ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Implies:
+    left: Formula
+    right: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Always:
+    """``always[lo, hi] arg``; bounds in seconds, ``hi`` may be ``math.inf``."""
+
+    lo: float
+    hi: float
+    arg: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Eventually:
+    lo: float
+    hi: float
+    arg: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Until:
+    """``left until[lo, hi] right``: max over k' in the window of
+    min(right(k'), min of left over k..k') — the left-window includes k'."""
+
+    lo: float
+    hi: float
+    left: Formula
+    right: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Release:
+    """Dual of ``Until`` (only produced by ``normalize``):
+    ``a release[lo,hi] b`` = not(not a until[lo,hi] not b)
+    = min over k' in window of max(b(k'), max of a over k..k')."""
+
+    lo: float
+    hi: float
+    left: Formula
+    right: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Next:
+    arg: Formula
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+Formula = Pred | TrueF | FalseF | Not | And | Or | Implies | Always | Eventually | Until | Release | Next
+
+FORMULA_NODES = (Pred, TrueF, FalseF, Not, And, Or, Implies, Always, Eventually, Until, Release,
+                 Next)
+#: the node types that may remain after ``normalize``
+NNF_NODES = (Pred, TrueF, FalseF, And, Or, Always, Eventually, Until, Release, Next)
+
+# --------------------------------------------------------------------------- normaliser
+
+
+def negate_expr(e: Expr) -> Expr:
+    if isinstance(e, Const):
+        return Const(-e.value)
+    if isinstance(e, Neg):
+        return e.arg
+    if isinstance(e, Bin) and e.op == "-":
+        return Bin("-", e.right, e.left)
+    return Neg(e)
+
+
+def _negate_label(label: str) -> str:
+    return f"not ({label})" if label else ""
+
+
+def normalize(f: Formula) -> Formula:
+    """Desugar ``implies``, push negations to predicates, flatten and/or."""
+    return _nnf(f, False)
+
+
+def _nnf(f: Formula, neg: bool) -> Formula:
+    match f:
+        case Pred(expr, label, span):
+            return Pred(negate_expr(expr), _negate_label(label), span) if neg else f
+        case TrueF(span):
+            return FalseF(span) if neg else f
+        case FalseF(span):
+            return TrueF(span) if neg else f
+        case Not(arg):
+            return _nnf(arg, not neg)
+        case Implies(a, b, span):
+            return _nnf(Or((Not(a), b), span), neg)
+        case And(args, span):
+            kids = tuple(_nnf(a, neg) for a in args)
+            return _flat(Or if neg else And, kids, span)
+        case Or(args, span):
+            kids = tuple(_nnf(a, neg) for a in args)
+            return _flat(And if neg else Or, kids, span)
+        case Always(lo, hi, arg, span):
+            return (Eventually if neg else Always)(lo, hi, _nnf(arg, neg), span)
+        case Eventually(lo, hi, arg, span):
+            return (Always if neg else Eventually)(lo, hi, _nnf(arg, neg), span)
+        case Until(lo, hi, a, b, span):
+            return (Release if neg else Until)(lo, hi, _nnf(a, neg), _nnf(b, neg), span)
+        case Release(lo, hi, a, b, span):
+            return (Until if neg else Release)(lo, hi, _nnf(a, neg), _nnf(b, neg), span)
+        case Next(arg, span):
+            return Next(_nnf(arg, neg), span)
+    raise TypeError(f"not a formula node: {f!r}")
+
+
+def _flat(cls: type, kids: tuple[Formula, ...], span: Span) -> Formula:
+    out: list[Formula] = []
+    for k in kids:
+        if isinstance(k, cls):
+            out.extend(k.args)
+        else:
+            out.append(k)
+    if len(out) == 1:
+        return out[0]
+    return cls(tuple(out), span)
+
+
+# --------------------------------------------------------------------------- utilities
+
+
+def children(f: Formula) -> tuple[Formula, ...]:
+    match f:
+        case Pred() | TrueF() | FalseF():
+            return ()
+        case Not(a) | Always(_, _, a) | Eventually(_, _, a) | Next(a):
+            return (a,)
+        case And(args) | Or(args):
+            return args
+        case Implies(a, b) | Until(_, _, a, b) | Release(_, _, a, b):
+            return (a, b)
+    raise TypeError(f"not a formula node: {f!r}")
+
+
+def horizon(f: Formula, dt: float) -> float:
+    """How far into the future (seconds) the formula looks from its evaluation time."""
+    match f:
+        case Pred() | TrueF() | FalseF():
+            return 0.0
+        case Next(a):
+            return dt + horizon(a, dt)
+        case Always(_, hi, a) | Eventually(_, hi, a):
+            return hi + horizon(a, dt)
+        case Until(_, hi, a, b) | Release(_, hi, a, b):
+            return hi + max(horizon(a, dt), horizon(b, dt))
+    return max((horizon(c, dt) for c in children(f)), default=0.0)
+
+
+def expr_leaves(e: Expr) -> set[Expr]:
+    """All ``Sig`` and ``Param`` leaves of an expression."""
+    match e:
+        case Sig() | Param():
+            return {e}
+        case Const():
+            return set()
+        case Neg(a):
+            return expr_leaves(a)
+        case Bin(_, a, b):
+            return expr_leaves(a) | expr_leaves(b)
+        case Call(_, args):
+            out: set[Expr] = set()
+            for a in args:
+                out |= expr_leaves(a)
+            return out
+    raise TypeError(f"not an expression node: {e!r}")
+
+
+def predicates(f: Formula) -> list[Pred]:
+    if isinstance(f, Pred):
+        return [f]
+    out: list[Pred] = []
+    for c in children(f):
+        out.extend(predicates(c))
+    return out
+
+
+def signals(f: Formula) -> set[str]:
+    out: set[str] = set()
+    for p in predicates(f):
+        out |= {leaf.name for leaf in expr_leaves(p.expr) if isinstance(leaf, Sig)}
+    return out
+
+
+def params(f: Formula) -> set[str]:
+    out: set[str] = set()
+    for p in predicates(f):
+        out |= {leaf.name for leaf in expr_leaves(p.expr) if isinstance(leaf, Param)}
+    return out
+
+
+def depth(f: Formula) -> int:
+    return 1 + max((depth(c) for c in children(f)), default=0)
+
+
+INF = math.inf

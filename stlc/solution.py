@@ -1,0 +1,92 @@
+"""The result of compiling a mission, in mission-level names only.
+
+Backends ``invert`` their raw solver output into a ``Solution``; the report, ``solution.json``
+and ``trajectory.csv`` are written from it and never see a solver object.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+STATUSES = ("satisfied", "violated", "solver_failed")
+
+
+@dataclass
+class SpecResult:
+    """Exact (and smooth) robustness of one named spec at t = 0, and where it is tightest."""
+
+    robustness: float
+    smooth: float | None = None
+    satisfied: bool = False
+    tightest_time: float | None = None  # time of the sample whose predicate binds
+    binding_predicate: str = ""  # label of the predicate that decides the robustness
+    line: int = 0  # source line of the spec definition
+
+
+@dataclass
+class Solution:
+    mission: str
+    status: str  # satisfied | violated | solver_failed
+    robustness_exact: float
+    robustness_smooth: float
+    specs: dict[str, SpecResult]
+    energy: float
+    times: np.ndarray  # (n,)
+    channels: dict[str, np.ndarray]  # every state/input/derived channel, each (n,)
+    timing: dict[str, float] = field(default_factory=dict)  # parse_s check_s build_s solve_s total_s
+    solver: dict[str, object] = field(default_factory=dict)  # name iterations return_status ...
+    smoothing: dict[str, object] = field(default_factory=dict)  # method, lam, schedule
+    problem_size: dict[str, int] = field(default_factory=dict)  # variables, constraints, samples
+    notes: list[str] = field(default_factory=list)
+    extra: dict[str, object] = field(default_factory=dict)  # e.g. energy_profile, comparisons
+
+    def to_json_dict(self) -> dict:
+        def num(x):
+            if x is None:
+                return None
+            x = float(x)
+            return x if math.isfinite(x) else (None if math.isnan(x) else
+                                               (1e308 if x > 0 else -1e308))
+
+        return {
+            "mission": self.mission,
+            "status": self.status,
+            "robustness": {"exact": num(self.robustness_exact),
+                           "smooth": num(self.robustness_smooth)},
+            "specs": {
+                k: {**asdict(v), "robustness": num(v.robustness), "smooth": num(v.smooth)}
+                for k, v in self.specs.items()
+            },
+            "energy": num(self.energy),
+            "timing": {k: round(float(v), 4) for k, v in self.timing.items()},
+            "solver": self.solver,
+            "smoothing": self.smoothing,
+            "problem_size": self.problem_size,
+            "notes": self.notes,
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_json_dict(), indent=2, default=_json_default)
+
+    def trajectory_csv(self) -> str:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        names = list(self.channels)
+        w.writerow(["t", *names])
+        for k, t in enumerate(self.times):
+            w.writerow([f"{t:.6g}", *(f"{self.channels[c][k]:.9g}" for c in names)])
+        return buf.getvalue()
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serialisable: {type(o)}")
