@@ -264,17 +264,23 @@ def children(f: Formula) -> tuple[Formula, ...]:
 
 
 def horizon(f: Formula, dt: float) -> float:
-    """How far into the future (seconds) the formula looks from its evaluation time."""
+    """How far into the future (seconds) the formula looks from its evaluation time.
+
+    An unbounded window (``hi = inf``) runs to the end of the trace and adds nothing."""
     match f:
         case Pred() | TrueF() | FalseF():
             return 0.0
         case Next(a):
             return dt + horizon(a, dt)
         case Always(_, hi, a) | Eventually(_, hi, a):
-            return hi + horizon(a, dt)
+            return _finite(hi) + horizon(a, dt)
         case Until(_, hi, a, b) | Release(_, hi, a, b):
-            return hi + max(horizon(a, dt), horizon(b, dt))
+            return _finite(hi) + max(horizon(a, dt), horizon(b, dt))
     return max((horizon(c, dt) for c in children(f)), default=0.0)
+
+
+def _finite(t: float) -> float:
+    return 0.0 if math.isinf(t) else t
 
 
 def expr_leaves(e: Expr) -> set[Expr]:

@@ -1,0 +1,492 @@
+"""Lower a normalised STL formula to smooth robustness in CasADi SX, ready for an NLP.
+
+``lower_robustness`` turns an NNF formula (``ir.normalize``) on a ``TimeGrid`` into
+
+* ``root`` — the smooth robustness at sample 0 (to be maximised),
+* ``aux``  — auxiliary decision variables introduced by *lifting*,
+* ``g``    — inequality constraints ``g >= 0``, and ``h`` — equality constraints ``h == 0``
+  (``constraints()`` stacks both with their bounds),
+* ``init`` — a ``casadi.Function`` from numeric channel/parameter/λ values to the aux values
+  that make every constraint hold (the un-lifted smooth values) and the un-lifted root.
+
+Semantics (the numpy reference ``stlc.smooth`` computes the same numbers): predicates are
+their expression (``casadi_expr``); ``and``/``always``/the inner min of ``until`` use the
+smooth min, ``or``/``eventually``/the outer max of ``until`` the smooth max of ``method``
+(``"gkl"`` or ``"lse"``), each as *one flat* smooth op over all its operands (the until inner
+min is over ``{g(k')} ∪ {f(k..k')}``, the release inner max over ``{b(k')} ∪ {a(k..k')}``).
+Windows are ``grid.window(lo, hi)`` clipped to the n samples; an empty window, ``true``,
+``false`` and ``next`` past the end are the constants ±``BIG``.
+
+Only needed samples are computed: the root needs sample 0, and each operator maps the
+sample set it needs onto its children (``always[0,17]`` at {0} needs its child at 0..170).
+
+**Dyadic windows.**  A window of length L > ``lift_span`` is the smooth op of the blocks of
+the binary expansion of L (≤ log2 L + 1 blocks); a block of size 2^j at start p combines the
+two blocks of size 2^(j-1) at p and p + 2^(j-1).  Blocks are built level by level, vectorised
+over every start any window needs, so n windows of length W cost O(n log W) operands
+instead of O(n W).  The smooth ops are associative in the block form (see ``casadi_expr``),
+so the value equals the flat one up to rounding.
+
+**Lifting.**  Every value carries a *span*, the number of base operands (predicates or aux
+variables) it depends on through smooth ops.  When a smooth op's span exceeds
+``lift_span`` its result is replaced by a fresh variable r with the hypograph constraint
+``op(children) - r >= 0``, so every constraint couples ≤ 2·``lift_span`` variables and the
+Hessian stays sparse.  Soundness is kept: by induction every feasible lifted value is ≤ the
+exact robustness of its sub-formula — predicates are exact; ``r ≤ smin(x) ≤ min(x) ≤
+min(exact)``; ``r ≤ gkl(x) ≤ max(x) ≤ max(exact)`` because the GKL mean is a convex
+combination of its operands whatever their weights (the same holds for a combination of GKL
+blocks, whatever the block normalisers ``s``).  So a lifted root ρ̃ > 0 proves satisfaction
+(with ``method="gkl"``; ``lse`` over-approximates max and is not sound).  For a formula of
+smooth mins only, the lifted optimum equals the un-lifted one (smin is increasing in every
+operand).  The GKL mean is *not* monotone (raising a low operand raises its weight), so
+below a GKL max the optimiser may keep an r strictly under its op — the lifted optimum can
+then exceed the un-lifted smooth value, but never the exact robustness.  The ``s`` of a
+lifted GKL block is constrained by an *equality* (``h``): a free ``s`` would let the
+optimiser re-weight blocks at will.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from stlc import ir
+from stlc.backends.casadi_expr import (
+    BIG,
+    Alg,
+    ExprEnv,
+    LoweringError,
+    MinAlg,
+    Num,
+    lower_expr,
+    max_alg,
+)
+from stlc.timegrid import TimeGrid
+
+__all__ = ["LoweredRobustness", "LoweringError", "lower_robustness", "LOWER", "BIG"]
+
+
+@dataclass
+class LoweredRobustness:
+    root: ca.SX
+    aux: ca.SX
+    g: ca.SX
+    h: ca.SX
+    init: ca.Function
+    stats: dict[str, int]
+
+    def constraints(self) -> tuple[ca.SX, np.ndarray, np.ndarray]:
+        """``(vertcat(g, h), lbg, ubg)`` ready for ``nlpsol``."""
+        ng, nh = self.g.numel(), self.h.numel()
+        lb = np.zeros(ng + nh)
+        ub = np.concatenate([np.full(ng, np.inf), np.zeros(nh)])
+        return ca.vertcat(self.g, self.h), lb, ub
+
+    def init_values(self, channels: Mapping[str, np.ndarray],
+                    params: Mapping[str, float] | None = None,
+                    lam: float | None = None) -> tuple[np.ndarray, float]:
+        """Numeric aux initial values and the un-lifted smooth root for numeric inputs."""
+        args: dict[str, object] = {}
+        for name in self.init.name_in():
+            if name == "lam":
+                args[name] = lam
+            elif name in channels:
+                args[name] = np.reshape(np.asarray(channels[name], float), (1, -1))
+            else:
+                args[name] = (params or {})[name]
+        out = self.init(**args)
+        return np.array(out["aux"]).ravel(), float(out["root"])
+
+
+# --------------------------------------------------------------------------- values
+
+
+@dataclass
+class _Val:
+    """A block row: components (1×L SX rows), its span, and its length."""
+
+    comps: tuple[ca.SX, ...]
+    span: int
+
+    @property
+    def size(self) -> int:
+        return self.comps[0].numel()
+
+    def take(self, pos: np.ndarray) -> _Val:
+        if len(pos) == self.size and (len(pos) == 0 or (pos == np.arange(len(pos))).all()):
+            return self
+        sel = pos.tolist()
+        return _Val(tuple(c[0, sel] for c in self.comps), self.span)
+
+
+@dataclass
+class _Row:
+    """A node's values at the sorted sample indices ``idx``."""
+
+    idx: np.ndarray
+    val: _Val
+
+    def at(self, samples: np.ndarray) -> _Val:
+        return self.val.take(np.searchsorted(self.idx, samples))
+
+
+def _const(v: float, size: int) -> _Val:
+    return _Val((ca.SX(np.full((1, size), v)),), 0)
+
+
+def _assemble(pieces: list[tuple[np.ndarray, _Val]]) -> _Val:
+    """Scatter (positions, plain row) pieces back into one row ordered by position."""
+    pieces = [(p, v) for p, v in pieces if len(p)]
+    if len(pieces) == 1:
+        return pieces[0][1]
+    pos = np.concatenate([p for p, _ in pieces])
+    row = ca.horzcat(*[v.comps[0] for _, v in pieces])
+    span = max(v.span for _, v in pieces)
+    return _Val((row,), span).take(np.argsort(pos, kind="stable"))
+
+
+def _bits_desc(length: int) -> list[int]:
+    return [j for j in range(length.bit_length() - 1, -1, -1) if length >> j & 1]
+
+
+def _windows(samples: np.ndarray, a: int, b: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """First and last sample of each window (clipped to the grid; empty if first > last)."""
+    return samples + a, np.minimum(samples + b, n - 1)
+
+
+def _union(first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Sorted samples in the union of the intervals [first_i, last_i] (both nondecreasing)."""
+    keep = first <= last
+    first, last = first[keep], last[keep]
+    if not len(first):
+        return np.zeros(0, dtype=np.int64)
+    out, lo, hi = [], first[0], last[0]
+    for f, e in zip(first[1:], last[1:]):
+        if f > hi + 1:
+            out.append(np.arange(lo, hi + 1))
+            lo = f
+        hi = max(hi, e)
+    out.append(np.arange(lo, hi + 1))
+    return np.concatenate(out).astype(np.int64)
+
+
+# --------------------------------------------------------------------------- the lowerer
+
+
+class _Lowerer:
+    """One pass over the formula.  ``mode``: ``"none"`` (no lifting), ``"shadow"`` (decide
+    lifts like ``"aux"`` but keep the expressions, recording them as aux initial values) or
+    ``"aux"`` (introduce aux variables and constraints)."""
+
+    def __init__(self, grid: TimeGrid, env: ExprEnv, mode: str, dyadic: bool, lift_span: int):
+        self.grid, self.n, self.env, self.lam = grid, grid.n, env, env.lam
+        self.mode, self.dyadic, self.lift_span = mode, dyadic, lift_span
+        self.min_alg, self.max_alg = MinAlg(), max_alg(env.method)
+        self.rows: dict[ir.Formula, _Row] = {}
+        self.aux: list[ca.SX] = []
+        self.init: list[ca.SX] = []
+        self.g: list[ca.SX] = []
+        self.h: list[ca.SX] = []
+        self.operands = 0
+
+    # ---- smooth ops and lifting
+
+    def combine(self, alg: Alg, vals: list[_Val]) -> _Val:
+        if len(vals) == 1:
+            return vals[0]
+        self.operands += len(vals) * vals[0].size
+        return _Val(alg.combine([v.comps for v in vals], self.lam), sum(v.span for v in vals))
+
+    def lift(self, v: _Val, kinds: tuple[str, ...]) -> _Val:
+        if self.mode == "none" or v.span <= self.lift_span:
+            return v
+        if self.mode == "shadow":
+            self.init.extend(c.T for c in v.comps)
+            return _Val(v.comps, 1)
+        syms = []
+        for c, kind in zip(v.comps, kinds):
+            r = ca.SX.sym(f"r{len(self.aux)}", 1, c.numel())
+            self.aux.append(r.T)
+            (self.g if kind == "ineq" else self.h).append((c - r).T)
+            syms.append(r)
+        return _Val(tuple(syms), 1)
+
+    def finish(self, alg: Alg, v: _Val) -> _Val:
+        """The plain value of a block, lifted if it is wide."""
+        return self.lift(_Val((alg.value(v.comps),), v.span), ("ineq",))
+
+    def reduce(self, alg: Alg, vals: list[_Val]) -> _Val:
+        """Plain smooth op of plain rows."""
+        return self.finish(alg, self.combine(alg, [self.leaf(alg, v) for v in vals]))
+
+    @staticmethod
+    def leaf(alg: Alg, v: _Val) -> _Val:
+        return _Val(alg.leaf(v.comps[0]), v.span)
+
+    # ---- driver
+
+    def run(self, f: ir.Formula) -> ca.SX:
+        order: list[ir.Formula] = []
+        seen: set[ir.Formula] = set()
+
+        def visit(node: ir.Formula) -> None:
+            if node in seen:
+                return
+            seen.add(node)
+            for c in ir.children(node):
+                visit(c)
+            order.append(node)
+
+        visit(f)
+        needs: dict[ir.Formula, list[np.ndarray]] = {f: [np.zeros(1, dtype=np.int64)]}
+        need: dict[ir.Formula, np.ndarray] = {}
+        for node in reversed(order):  # parents before children
+            k = np.unique(np.concatenate(needs.get(node, [np.zeros(0, dtype=np.int64)])))
+            need[node] = k
+            if len(k):
+                for child, ks in _child_needs(node, k, self.grid):
+                    needs.setdefault(child, []).append(ks)
+        for node in order:  # children before parents
+            k = need[node]
+            if len(k):
+                fn = LOWER.get(type(node))
+                if fn is None:
+                    raise LoweringError(f"{type(node).__name__} is not an NNF node; "
+                                        "run ir.normalize first")
+                self.rows[node] = _Row(k, fn(self, node, k))
+        return self.rows[f].val.comps[0][0, 0]
+
+    # ---- windows
+
+    def window(self, alg: Alg, child: ir.Formula, k: np.ndarray, a: int, b: int) -> _Val:
+        first, last = _windows(k, a, b, self.n)
+        length = last - first + 1
+        empty = np.flatnonzero(length <= 0)
+        pieces = [(empty, _const(alg.empty, len(empty)))]
+        if len(empty) == len(k):
+            return pieces[0][1]
+        row = self.rows[child]
+        groups = {int(m): np.flatnonzero(length == m) for m in np.unique(length[length > 0])}
+        wide = {m: first[p] for m, p in groups.items() if self.dyadic and m > self.lift_span}
+        levels = self.levels(alg, row, wide) if wide else {}
+        for m, pos in groups.items():
+            starts = first[pos]
+            if m in wide:
+                parts, off = [], 0
+                for j in _bits_desc(m):
+                    st, blk = levels[j]
+                    parts.append(blk.take(np.searchsorted(st, starts + off)))
+                    off += 1 << j
+            else:
+                parts = [self.leaf(alg, row.at(starts + j)) for j in range(m)]
+            pieces.append((pos, self.finish(alg, self.combine(alg, parts))))
+        return _assemble(pieces)
+
+    def levels(self, alg: Alg, row: _Row, wide: dict[int, np.ndarray]
+               ) -> dict[int, tuple[np.ndarray, _Val]]:
+        """Dyadic blocks (starts, block row) per level j, for every start a window needs."""
+        want: dict[int, list[np.ndarray]] = {}
+        for m, starts in wide.items():
+            off = 0
+            for j in _bits_desc(m):
+                want.setdefault(j, []).append(starts + off)
+                off += 1 << j
+        top = max(want)
+        starts_at: dict[int, np.ndarray] = {}
+        for j in range(top, -1, -1):
+            st = np.unique(np.concatenate(want.get(j, [np.zeros(0, dtype=np.int64)])))
+            starts_at[j] = st
+            if j:
+                want.setdefault(j - 1, []).extend([st, st + (1 << (j - 1))])
+        out = {0: (starts_at[0], self.leaf(alg, row.at(starts_at[0])))}
+        for j in range(1, top + 1):
+            st = starts_at[j]
+            prev_st, prev = out[j - 1]
+            left = prev.take(np.searchsorted(prev_st, st))
+            right = prev.take(np.searchsorted(prev_st, st + (1 << (j - 1))))
+            out[j] = (st, self.lift(self.combine(alg, [left, right]), alg.kinds))
+        return out
+
+    def until_like(self, f: ir.Until | ir.Release, k: np.ndarray,
+                   inner: Alg, outer: Alg) -> _Val:
+        """``max_{k'} min(g(k'), f(k..k'))`` (until) or its dual (release) as two chains
+        over the offset d = k' - k, vectorised over k.  The last offset of sample k,
+        min(b, n-1-k), is nonincreasing in k, so the samples still active at offset d are a
+        prefix of k; the others are finished and set aside."""
+        a, b = self.grid.window(f.lo, f.hi)
+        left, right = self.rows.get(f.left), self.rows.get(f.right)
+        reach = np.minimum(b, self.n - 1 - k)  # last offset per sample, nonincreasing
+        pieces: list[tuple[np.ndarray, _Val]] = []
+        no_window = np.flatnonzero(reach < a)
+        pieces.append((no_window, _const(outer.empty, len(no_window))))
+        prefix = acc = None
+        active = len(k)
+        last_d = int(reach.max()) if len(k) and reach.max() >= a else -1
+        for d in range(last_d + 1):
+            m = int(np.count_nonzero(reach >= d))
+            if m < active and acc is not None:  # samples whose window ended at d - 1
+                pieces.append((np.arange(m, active), self.finish(outer, acc.take(
+                    np.arange(m, active)))))
+            active = m
+            ks = k[:m] + d
+            term = self.leaf(inner, left.at(ks))
+            prefix = term if prefix is None else self.lift(
+                self.combine(inner, [prefix.take(np.arange(m)), term]), inner.kinds)
+            if d < a:
+                continue
+            cur = self.leaf(inner, right.at(ks))
+            op = self.leaf(outer, self.finish(inner, self.combine(inner, [cur, prefix])))
+            acc = op if acc is None else self.lift(
+                self.combine(outer, [acc.take(np.arange(m)), op]), outer.kinds)
+        if acc is not None:
+            pieces.append((np.arange(active), self.finish(outer, acc)))
+        return _assemble(pieces)
+
+
+# --------------------------------------------------------------------------- needs
+
+
+def _child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
+                 ) -> list[tuple[ir.Formula, np.ndarray]]:
+    """Which samples of each child the node needs to be evaluated at samples ``k``."""
+    n = grid.n
+    match f:
+        case ir.And(args) | ir.Or(args):
+            return [(c, k) for c in args]
+        case ir.Always(lo, hi, c) | ir.Eventually(lo, hi, c):
+            a, b = grid.window(lo, hi)
+            return [(c, _union(*_windows(k, a, b, n)))]
+        case ir.Until(lo, hi, left, right) | ir.Release(lo, hi, left, right):
+            a, b = grid.window(lo, hi)
+            first, last = _windows(k, a, b, n)
+            return [(left, _union(k, last)), (right, _union(first, last))]
+        case ir.Next(c):
+            return [(c, k[k + 1 < n] + 1)]
+    return []
+
+
+# --------------------------------------------------------------------------- dispatch
+
+
+def _check_window(f: ir.Formula, grid: TimeGrid) -> tuple[int, int]:
+    a, b = grid.window(f.lo, f.hi)
+    if a < 0:
+        raise LoweringError(f"negative window start in {type(f).__name__}[{f.lo}, {f.hi}]")
+    return a, b
+
+
+def _pred(lw: _Lowerer, f: ir.Pred, k: np.ndarray) -> _Val:
+    v = lower_expr(f.expr, lw.env)
+    if not isinstance(v, ca.SX) or v.numel() == 1:
+        return _Val((ca.repmat(ca.SX(v), 1, len(k)),), 1)
+    return _Val((v,), 1).take(k)
+
+
+def _always(lw: _Lowerer, f: ir.Always, k: np.ndarray) -> _Val:
+    return lw.window(lw.min_alg, f.arg, k, *_check_window(f, lw.grid))
+
+
+def _eventually(lw: _Lowerer, f: ir.Eventually, k: np.ndarray) -> _Val:
+    return lw.window(lw.max_alg, f.arg, k, *_check_window(f, lw.grid))
+
+
+def _next(lw: _Lowerer, f: ir.Next, k: np.ndarray) -> _Val:
+    inside = k + 1 < lw.n
+    pos_in, pos_out = np.flatnonzero(inside), np.flatnonzero(~inside)
+    pieces = [(pos_out, _const(-BIG, len(pos_out)))]
+    if len(pos_in):
+        pieces.append((pos_in, lw.rows[f.arg].at(k[inside] + 1)))
+    return _assemble(pieces)
+
+
+def _until(lw: _Lowerer, f: ir.Until, k: np.ndarray) -> _Val:
+    _check_window(f, lw.grid)
+    return lw.until_like(f, k, lw.min_alg, lw.max_alg)
+
+
+def _release(lw: _Lowerer, f: ir.Release, k: np.ndarray) -> _Val:
+    _check_window(f, lw.grid)
+    return lw.until_like(f, k, lw.max_alg, lw.min_alg)
+
+
+LOWER: dict[type, Callable[[_Lowerer, ir.Formula, np.ndarray], _Val]] = {
+    ir.Pred: _pred,
+    ir.TrueF: lambda lw, f, k: _const(BIG, len(k)),
+    ir.FalseF: lambda lw, f, k: _const(-BIG, len(k)),
+    ir.And: lambda lw, f, k: lw.reduce(lw.min_alg, [lw.rows[c].at(k) for c in f.args]),
+    ir.Or: lambda lw, f, k: lw.reduce(lw.max_alg, [lw.rows[c].at(k) for c in f.args]),
+    ir.Always: _always,
+    ir.Eventually: _eventually,
+    ir.Until: _until,
+    ir.Release: _release,
+    ir.Next: _next,
+}
+
+
+# --------------------------------------------------------------------------- entry point
+
+
+def _is_symbolic(x: object) -> bool:
+    return isinstance(x, ca.SX) and not x.is_constant()
+
+
+def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX],
+                     params: Mapping[str, Num], lam: Num, method: str = "gkl",
+                     lift: bool = True, dyadic: bool = True,
+                     lift_span: int = 4) -> LoweredRobustness:
+    """Smooth robustness of the NNF formula ``f`` at sample 0 as CasADi SX.
+
+    ``channels`` maps each signal to a 1×n SX row (n = ``grid.n``; entries may be decision
+    variables or expressions of them); ``params`` and ``lam`` may be SX symbols or floats.
+    ``lift`` introduces aux variables (see module docstring) for smooth ops wider than
+    ``lift_span`` operands; ``dyadic`` evaluates sliding windows from power-of-two blocks.
+    """
+    n = grid.n
+    sigs, pars = sorted(ir.signals(f)), sorted(ir.params(f))
+    for s in sigs:
+        if s not in channels:
+            raise LoweringError(f"no channel for signal {s!r}")
+        if channels[s].shape != (1, n):
+            raise LoweringError(f"channel {s!r} has shape {channels[s].shape}, want (1, {n})")
+    for p in pars:
+        if p not in params:
+            raise LoweringError(f"no value for parameter {p!r}")
+
+    # placeholders: the init Function takes numeric values of channels, params and λ
+    ph_ch = {s: ca.SX.sym(s, 1, n) for s in sigs}
+    ph_par = {p: ca.SX.sym(p) if _is_symbolic(params[p]) else params[p] for p in pars}
+    ph_lam = ca.SX.sym("lam") if _is_symbolic(lam) else lam
+    inputs = [ph_ch[s] for s in sigs] + [ph_par[p] for p in pars if _is_symbolic(params[p])]
+    names = sigs + [p for p in pars if _is_symbolic(params[p])]
+    if _is_symbolic(lam):
+        inputs.append(ph_lam)
+        names.append("lam")
+
+    shadow = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "shadow" if lift else "none",
+                      dyadic, lift_span)
+    root0 = shadow.run(f)
+    aux0 = ca.vertcat(*shadow.init) if shadow.init else ca.SX(0, 1)
+    init = ca.Function("robustness_init", inputs, [aux0, root0], names, ["aux", "root"])
+
+    if lift:
+        chans = {s: ca.SX(channels[s]) for s in sigs}
+        lw = _Lowerer(grid, ExprEnv(chans, dict(params), lam, method), "aux", dyadic, lift_span)
+        root = lw.run(f)
+        aux = ca.vertcat(*lw.aux) if lw.aux else ca.SX(0, 1)
+        g = ca.vertcat(*lw.g) if lw.g else ca.SX(0, 1)
+        h = ca.vertcat(*lw.h) if lw.h else ca.SX(0, 1)
+    else:
+        lw = shadow
+        actual = [channels[s] for s in sigs] + [params[p] for p in pars
+                                                if _is_symbolic(params[p])]
+        if _is_symbolic(lam):
+            actual.append(lam)
+        root = ca.substitute([root0], [ca.vec(x) for x in inputs],
+                             [ca.vec(ca.SX(x)) for x in actual])[0] if inputs else root0
+        aux = g = h = ca.SX(0, 1)
+    stats = {"operands": lw.operands, "aux": aux.numel(), "g": g.numel(), "h": h.numel(),
+             "nodes": len(lw.rows)}
+    return LoweredRobustness(root, aux, g, h, init, stats)

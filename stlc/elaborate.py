@@ -1,0 +1,664 @@
+"""Elaboration of expressions and formulas: AST nodes → checked values and IR.
+
+``Elaborator.value(node, scope)`` evaluates constants (with units converted to SI), turns
+references to vehicle fields and human poses into scalar IR expressions, expands vector
+comparisons, region membership, ranges and quantifiers, and inlines named specs.  Every
+mistake becomes a diagnostic in the shared ``Collector`` and an ``ErrorV`` value, so one
+pass reports all independent errors.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from stlc import ast, ir, model, units
+from stlc.diagnostics import Collector, Span, did_you_mean
+from stlc.timegrid import is_aligned
+from stlc.values import (
+    ERROR, DistV, ErrorV, Form, GroupV, HumanV, Num, RegionV, RotorsV, StrV, Sym, Value,
+    VehicleV, add, call, const, div, kind_name, mul, neg, sub, to_sym,
+)
+
+BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None), "g0": (9.81, units.ACCEL)}
+FUNCTIONS = ("abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2", "angdiff",
+             "dot", "dist", "box", "diag", "normal", "hexarotor", "quadrotor")
+AXIS_NAMES = {"x": 0, "y": 1, "z": 2, "roll": 0, "pitch": 1, "yaw": 2}
+
+
+@dataclass
+class Scope:
+    """Name → value bindings, innermost first through ``parent``."""
+
+    names: dict[str, Value] = field(default_factory=dict)
+    parent: Scope | None = None
+    #: names whose value is computed on first use (named specs, to report use-before-def)
+    lookup_hook: Callable[[str], Value | None] | None = None
+
+    def get(self, name: str) -> Value | None:
+        s: Scope | None = self
+        while s is not None:
+            if name in s.names:
+                return s.names[name]
+            s = s.parent
+        return None
+
+    def all_names(self) -> set[str]:
+        out: set[str] = set()
+        s: Scope | None = self
+        while s is not None:
+            out |= set(s.names)
+            s = s.parent
+        return out
+
+    def child(self, names: dict[str, Value]) -> Scope:
+        return Scope(dict(names), self)
+
+
+@dataclass
+class TimeCtx:
+    step: float | None = None  # mission step (alignment checks) or None
+
+
+class Elaborator:
+    def __init__(self, diags: Collector, source: str, file: str):
+        self.d = diags
+        self.lines = source.splitlines()
+        self.file = file
+        self.time = TimeCtx()
+
+    # ------------------------------------------------------------ helpers
+    def text(self, span: Span) -> str:
+        """The source text of a span (single line; for predicate labels)."""
+        if not span.known or span.line > len(self.lines):
+            return ""
+        line = self.lines[span.line - 1]
+        if span.end_line == span.line:
+            return line[span.col - 1: span.end_col - 1].strip()
+        return line[span.col - 1:].strip() + " …"
+
+    def err(self, code: str, msg: str, span: Span, help: str | None = None) -> ErrorV:
+        self.d.error(code, msg, span, help)
+        return ERROR
+
+    # ------------------------------------------------------------ constants
+    def number(self, node: ast.Node, scope: Scope, want: units.Dim | None = None,
+               what: str = "value") -> float | None:
+        """A constant scalar in SI units, checked against the expected dimension."""
+        v = self.value(node, scope)
+        if isinstance(v, ErrorV):
+            return None
+        if not isinstance(v, Num) or not v.is_scalar:
+            self.err("STL210", f"expected a constant number for {what}, found {kind_name(v)}"
+                     if not isinstance(v, Num) else f"expected a single number for {what}",
+                     node.span)
+            return None
+        if want is not None and not units.compatible(v.dim, want):
+            self.err("STL204", f"unit mismatch: {what} must be {units.describe(want)}, "
+                     f"found {units.describe(v.dim)}", node.span,
+                     f"write it like `{_example(want)}`")
+            return None
+        return float(v.v)
+
+    def vector(self, node: ast.Node, scope: Scope, n: int | None, want: units.Dim | None,
+               what: str) -> np.ndarray | None:
+        v = self.value(node, scope)
+        if isinstance(v, ErrorV):
+            return None
+        if not isinstance(v, Num):
+            self.err("STL210", f"expected constant numbers for {what}, found {kind_name(v)}",
+                     node.span)
+            return None
+        arr = np.atleast_1d(v.v).astype(float)
+        if n is not None and arr.shape != (n,):
+            if arr.shape == (1,):
+                arr = np.repeat(arr, n)
+            else:
+                self.err("STL205", f"{what} needs {n} components, found {arr.size}", node.span,
+                         f"write {n} numbers in parentheses, e.g. ({', '.join(['0'] * n)})")
+                return None
+        if want is not None and not units.compatible(v.dim, want):
+            self.err("STL204", f"unit mismatch: {what} must be {units.describe(want)}, "
+                     f"found {units.describe(v.dim)}", node.span,
+                     f"add the unit, e.g. `{_example(want)}`")
+            return None
+        return arr
+
+    # ------------------------------------------------------------ generic evaluation
+    def value(self, node: ast.Node, scope: Scope) -> Value:
+        method = getattr(self, "_v_" + type(node).__name__.lower())
+        return method(node, scope)
+
+    def _v_number(self, n: ast.Number, scope: Scope) -> Value:
+        return Num(np.array(n.value), None)
+
+    def _v_bool(self, n: ast.Bool, scope: Scope) -> Value:
+        return Form(ir.TrueF(n.span) if n.value else ir.FalseF(n.span))
+
+    def _v_string(self, n: ast.String, scope: Scope) -> Value:
+        return StrV(n.value)
+
+    def _v_quantity(self, n: ast.Quantity, scope: Scope) -> Value:
+        try:
+            scale, dim = units.parse_unit(n.unit)
+        except units.UnitError as e:
+            bad = str(e)
+            return self.err("STL203", f"unknown unit `{bad}`", n.span,
+                            did_you_mean(bad, units.UNITS) or
+                            "known units: " + ", ".join(units.UNITS))
+        v = self.value(n.arg, scope)
+        match v:
+            case Num():
+                if v.dim is not None and v.dim != units.DIMLESS:
+                    return self.err("STL204", f"`{n.unit}` applied to a value that already "
+                                    f"has a unit ({units.describe(v.dim)})", n.span)
+                return Num(v.v * scale, dim)
+            case RegionV(name, box):
+                if box.frame is None and box.lo and True:
+                    pass
+                return RegionV(name, model.Box(tuple(x * scale for x in box.lo),  # type: ignore
+                                               tuple(x * scale for x in box.hi), box.frame))
+            case DistV(mean, cov, _):
+                return DistV(mean * scale, cov * scale * scale, dim)
+            case ErrorV():
+                return v
+            case Sym():
+                return Sym(tuple(mul(e, const(scale)) for e in v.items), dim, v.vector, v.labels)
+        return self.err("STL204", f"a unit cannot follow {kind_name(v)}", n.span)
+
+    def _v_tuple(self, n: ast.Tuple, scope: Scope) -> Value:
+        vals = [self.value(i, scope) for i in n.items]
+        if any(isinstance(v, ErrorV) for v in vals):
+            return ERROR
+        if all(isinstance(v, Num) and v.is_scalar for v in vals):
+            dims = [v.dim for v in vals]  # type: ignore[union-attr]
+            dim = _common_dim(dims)
+            if dim is False:
+                return self.err("STL204", "the components of a vector have different units",
+                                n.span)
+            return Num(np.array([float(v.v) for v in vals]), dim)  # type: ignore[union-attr]
+        if all(isinstance(v, (Num, Sym)) for v in vals):
+            items, labels, dims = [], [], []
+            for v, node in zip(vals, n.items):
+                s = to_sym(v) if isinstance(v, Num) else v
+                if s.vector or len(s.items) != 1:
+                    return self.err("STL205", "vector components must be scalars", node.span)
+                items.append(s.items[0])
+                labels.append(self.text(node.span))
+                dims.append(s.dim)
+            dim = _common_dim(dims)
+            if dim is False:
+                return self.err("STL204", "the components of a vector have different units",
+                                n.span)
+            return Sym(tuple(items), dim, True, tuple(labels))
+        return self.err("STL205", "a vector holds numbers or signals only", n.span)
+
+    def _v_list(self, n: ast.List, scope: Scope) -> Value:
+        vals = [self.value(i, scope) for i in n.items]
+        if any(isinstance(v, ErrorV) for v in vals):
+            return ERROR
+        if vals and all(isinstance(v, Num) for v in vals):
+            shapes = {v.v.shape for v in vals}  # type: ignore[union-attr]
+            dim = _common_dim([v.dim for v in vals])  # type: ignore[union-attr]
+            if len(shapes) == 1 and dim is not False:
+                return Num(np.array([v.v for v in vals], dtype=float), dim)  # type: ignore
+        return GroupV("list", tuple(vals))
+
+    def _v_path(self, n: ast.Path, scope: Scope) -> Value:
+        head = n.parts[0]
+        v = scope.get(head)
+        if v is None and scope.lookup_hook is not None:
+            v = scope.lookup_hook(head)
+        if v is None and head in BUILTIN_CONSTS:
+            x, dim = BUILTIN_CONSTS[head]
+            v = Num(np.array(x), dim)
+        if v is None:
+            cands = scope.all_names() | set(BUILTIN_CONSTS)
+            return self.err("STL101", f"unknown name `{head}`", _head_span(n),
+                            did_you_mean(head, cands))
+        for i, part in enumerate(n.parts[1:], start=1):
+            v = self.member(v, part, n, i)
+            if isinstance(v, ErrorV):
+                return v
+        return v
+
+    def member(self, v: Value, part: str, n: ast.Path, i: int) -> Value:
+        """``v.part`` — vehicle fields, human pose and regions, vector components."""
+        prefix = ".".join(n.parts[:i])
+        span = n.span
+        match v:
+            case VehicleV(veh):
+                fields = vehicle_fields(veh)
+                if part in fields:
+                    return fields[part]
+                return self.err("STL103", f"vehicle `{veh.name}` ({veh.kind}) has no field "
+                                f"`{part}`", span, did_you_mean(part, fields) or
+                                "fields: " + ", ".join(sorted(fields)))
+            case HumanV(h):
+                fields = human_fields(h, self._regions_of(h.name))
+                if part in fields:
+                    return fields[part]
+                return self.err("STL103", f"human `{h.name}` has no field or region `{part}`",
+                                span, did_you_mean(part, fields) or
+                                "fields: " + ", ".join(sorted(fields)))
+            case Sym(items, dim, True, labels):
+                idx = _component(part, len(items))
+                if idx is None:
+                    return self.err("STL103", f"`{prefix}` has no component `{part}`", span,
+                                    "use .x/.y/.z or an index 1.." + str(len(items)))
+                return Sym((items[idx],), dim, False, (labels[idx],))
+            case Num(arr, dim) if arr.ndim == 1:
+                idx = _component(part, arr.size)
+                if idx is None:
+                    return self.err("STL103", f"`{prefix}` has no component `{part}`", span)
+                return Num(np.array(arr[idx]), dim)
+            case RegionV(name, box):
+                fields = {"lo": Num(np.array(box.lo), units.LENGTH),
+                          "hi": Num(np.array(box.hi), units.LENGTH)}
+                if box.frame is None and part in ("center", "centre"):
+                    return Num((np.array(box.lo) + np.array(box.hi)) / 2, units.LENGTH)
+                if part in fields and box.frame is None:
+                    return fields[part]
+                return self.err("STL103", f"region `{name}` has no field `{part}`", span)
+        return self.err("STL103", f"`{prefix}` ({kind_name(v)}) has no field `{part}`", span)
+
+    #: set by the checker: human name → {region name: RegionV}
+    human_regions: dict[str, dict[str, RegionV]] = {}
+
+    def _regions_of(self, human: str) -> dict[str, RegionV]:
+        return self.human_regions.get(human, {})
+
+    # ------------------------------------------------------------ arithmetic
+    def _v_unary(self, n: ast.Unary, scope: Scope) -> Value:
+        v = self.value(n.arg, scope)
+        if n.op == "+" or isinstance(v, ErrorV):
+            return v
+        match v:
+            case Num():
+                return Num(-v.v, v.dim)
+            case Sym():
+                return Sym(tuple(neg(e) for e in v.items), v.dim, v.vector, v.labels)
+            case Form():
+                return self.err("STL202", "expected a number, found a formula", n.arg.span,
+                                "use `not` to negate a formula")
+        return self.err("STL202", f"cannot negate {kind_name(v)}", n.span)
+
+    def _v_binary(self, n: ast.Binary, scope: Scope) -> Value:
+        a, b = self.value(n.left, scope), self.value(n.right, scope)
+        if isinstance(a, ErrorV) or isinstance(b, ErrorV):
+            return ERROR
+        for v, node in ((a, n.left), (b, n.right)):
+            if isinstance(v, Form):
+                return self.err("STL202", "expected a number, found a formula", node.span,
+                                "arithmetic works on numbers and signals; combine formulas "
+                                "with `and`, `or`, `implies`")
+            if not isinstance(v, (Num, Sym)):
+                return self.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
+        if n.op in "+-":
+            if not units.compatible(a.dim, b.dim):  # type: ignore[union-attr]
+                return self.err("STL204", f"unit mismatch: cannot {'add' if n.op == '+' else 'subtract'} "
+                                f"{units.describe(b.dim)} and {units.describe(a.dim)}",  # type: ignore
+                                n.span)
+            dim = units.join(a.dim, b.dim)  # type: ignore[union-attr]
+        elif n.op == "*":
+            dim = units.mul(a.dim, b.dim)  # type: ignore[union-attr]
+        elif n.op == "/":
+            dim = units.div(a.dim, b.dim)  # type: ignore[union-attr]
+        else:  # ^
+            if not (isinstance(b, Num) and b.is_scalar):
+                return self.err("STL210", "an exponent must be a constant number", n.right.span)
+            try:
+                dim = units.power(a.dim, float(b.v))  # type: ignore[union-attr]
+            except units.UnitError:
+                return self.err("STL204", "fractional power of a unit", n.span)
+        if isinstance(a, Num) and isinstance(b, Num):
+            try:
+                with np.errstate(all="ignore"):
+                    r = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide,
+                         "^": np.power}[n.op](a.v, b.v)
+            except ValueError:
+                return self.err("STL205", "vector sizes do not match", n.span)
+            return Num(np.asarray(r, dtype=float), dim)
+        sa, sb = (to_sym(a) if isinstance(a, Num) else a), (to_sym(b) if isinstance(b, Num) else b)
+        items = _broadcast(sa, sb)
+        if items is None:
+            return self.err("STL205", f"vector sizes do not match ({len(sa.items)} and "
+                            f"{len(sb.items)})", n.span)
+        fn = {"+": add, "-": sub, "*": mul, "/": div,
+              "^": lambda x, y: ir.Bin("^", x, y)}[n.op]
+        out = tuple(fn(x, y) for x, y in items)
+        vector = sa.vector or sb.vector
+        labels = tuple(self.text(n.span) for _ in out)
+        return Sym(out, dim, vector, labels)
+
+    # ------------------------------------------------------------ calls
+    def _v_call(self, n: ast.Call, scope: Scope) -> Value:
+        from stlc import builtins  # local import: builtins needs this module's classes
+
+        fn = builtins.FUNCS.get(n.fn)
+        if fn is None:
+            return self.err("STL107", f"unknown function `{n.fn}`", _head_span_call(n),
+                            did_you_mean(n.fn, builtins.FUNCS) or
+                            "functions: " + ", ".join(sorted(builtins.FUNCS)))
+        return fn(self, n, scope)
+
+    # ------------------------------------------------------------ formulas
+    def formula(self, node: ast.Node, scope: Scope) -> ir.Formula | None:
+        v = self.value(node, scope)
+        if isinstance(v, Form):
+            return v.f
+        if isinstance(v, ErrorV):
+            return None
+        if isinstance(v, (Num, Sym)):
+            self.err("STL201", "expected a formula, found a number", node.span,
+                     "compare it with something, e.g. `... >= 0`")
+        else:
+            self.err("STL201", f"expected a formula, found {kind_name(v)}", node.span)
+        return None
+
+    def _v_not(self, n: ast.Not, scope: Scope) -> Value:
+        f = self.formula(n.arg, scope)
+        return ERROR if f is None else Form(ir.Not(f, n.span))
+
+    def _v_logic(self, n: ast.Logic, scope: Scope) -> Value:
+        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
+        if a is None or b is None:
+            return ERROR
+        if n.op == "implies":
+            return Form(ir.Implies(a, b, n.span))
+        cls = ir.And if n.op == "and" else ir.Or
+        return Form(cls((a, b), n.span))
+
+    def interval(self, iv: ast.Interval | None, scope: Scope) -> tuple[float, float] | None:
+        if iv is None:
+            return 0.0, math.inf
+        lo = self.number(iv.lo, scope, units.TIME, "a time bound")
+        hi = self.number(iv.hi, scope, units.TIME, "a time bound")
+        if lo is None or hi is None:
+            return None
+        ok = True
+        for t, node in ((lo, iv.lo), (hi, iv.hi)):
+            if t < 0:
+                self.err("STL301", f"negative time bound {t:g} s", node.span,
+                         "time bounds are relative to now and must be >= 0")
+                ok = False
+            elif math.isnan(t):
+                ok = False
+        if ok and lo > hi:
+            self.err("STL302", f"interval bounds out of order: [{lo:g}, {hi:g}]", iv.span,
+                     f"did you mean [{hi:g}, {lo:g}]?")
+            ok = False
+        step = self.time.step
+        if ok and step:
+            for t, node in ((lo, iv.lo), (hi, iv.hi)):
+                if not is_aligned(t, step):
+                    self.err("STL303", f"time bound {t:g} s is not a multiple of the mission "
+                             f"step {step:g} s", node.span,
+                             f"use {round(t / step) * step:g} s")
+                    ok = False
+        return (lo, hi) if ok else None
+
+    def _v_temporal(self, n: ast.Temporal, scope: Scope) -> Value:
+        f = self.formula(n.arg, scope)
+        if n.op == "next":
+            return ERROR if f is None else Form(ir.Next(f, n.span))
+        iv = self.interval(n.interval, scope)
+        if f is None or iv is None:
+            return ERROR
+        cls = ir.Always if n.op == "always" else ir.Eventually
+        return Form(cls(iv[0], iv[1], f, n.span))
+
+    def _v_until(self, n: ast.Until, scope: Scope) -> Value:
+        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
+        iv = self.interval(n.interval, scope)
+        if a is None or b is None or iv is None:
+            return ERROR
+        return Form(ir.Until(iv[0], iv[1], a, b, n.span))
+
+    def _v_quant(self, n: ast.Quant, scope: Scope) -> Value:
+        dom = self.value(n.domain, scope)
+        if isinstance(dom, ErrorV):
+            return dom
+        if not isinstance(dom, GroupV):
+            return self.err("STL208", f"cannot range over {kind_name(dom)}", n.domain.span,
+                            "range over `team`, `targets`, `stations`, `homes`, `obstacles` "
+                            "or a list like [uav1, uav2]")
+        if len(set(n.names)) != len(n.names):
+            return self.err("STL102", "the same name is bound twice", n.span)
+        combos = list(itertools.combinations(dom.items, len(n.names)))
+        parts = []
+        for combo in combos:
+            f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
+            if f is None:
+                return ERROR
+            parts.append(f)
+        if not parts:
+            return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
+        if len(parts) == 1:
+            return Form(parts[0])
+        return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))
+
+    def _v_compare(self, n: ast.Compare, scope: Scope) -> Value:
+        a, b = self.value(n.left, scope), self.value(n.right, scope)
+        pair = self._numeric_pair(a, b, n)
+        if pair is None:
+            return ERROR
+        sa, sb = pair
+        items = _broadcast(sa, sb)
+        if items is None:
+            return self.err("STL205", f"cannot compare {len(sa.items)} with {len(sb.items)} "
+                            "components", n.span)
+        label = self.text(n.span)
+        preds = []
+        for k, (x, y) in enumerate(items):
+            e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
+            lab = label if len(items) == 1 else f"{label} [{k + 1}]"
+            preds.append(ir.Pred(e, lab, n.span))
+        return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
+
+    def _numeric_pair(self, a: Value, b: Value, n) -> tuple[Sym, Sym] | None:
+        if isinstance(a, ErrorV) or isinstance(b, ErrorV):
+            return None
+        for v, node in ((a, n.left), (b, getattr(n, "right", None) or n)):
+            if isinstance(v, Form):
+                self.err("STL202", "expected a number, found a formula", node.span,
+                         "comparisons take numbers or signals on both sides")
+                return None
+            if not isinstance(v, (Num, Sym)):
+                self.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
+                return None
+        if not units.compatible(a.dim, b.dim):  # type: ignore[union-attr]
+            self.err("STL204", f"unit mismatch: comparing {units.describe(a.dim)} with "  # type: ignore
+                     f"{units.describe(b.dim)}", n.span,  # type: ignore[union-attr]
+                     _unit_hint(b.dim, a.dim))  # type: ignore[union-attr]
+            return None
+        sa = to_sym(a) if isinstance(a, Num) else a
+        sb = to_sym(b) if isinstance(b, Num) else b
+        return sa, sb  # type: ignore[return-value]
+
+    def _v_in(self, n: ast.In, scope: Scope) -> Value:
+        v = self.value(n.arg, scope)
+        if isinstance(v, ErrorV):
+            return v
+        if isinstance(n.region, ast.Range):
+            lo, hi = self.value(n.region.lo, scope), self.value(n.region.hi, scope)
+            p1 = self._numeric_pair(v, lo, _Pair(n.arg, n.region.lo, n.span))
+            p2 = self._numeric_pair(v, hi, _Pair(n.arg, n.region.hi, n.span))
+            if p1 is None or p2 is None:
+                return ERROR
+            i1, i2 = _broadcast(*p1), _broadcast(*p2)
+            if i1 is None or i2 is None:
+                return self.err("STL205", "range and value sizes do not match", n.span)
+            label = self.text(n.span)
+            preds = []
+            for (x, lo_e), (_, hi_e) in zip(i1, i2):
+                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span))
+                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span))
+            f: ir.Formula = ir.And(tuple(preds), n.span)
+        else:
+            reg = self.value(n.region, scope)
+            if isinstance(reg, ErrorV):
+                return reg
+            if not isinstance(reg, RegionV):
+                return self.err("STL208", f"expected a region after `in`, found {kind_name(reg)}",
+                                n.region.span, "regions are boxes: workspace, obstacles, "
+                                "targets, a human's regions, or box(lo, hi)")
+            if isinstance(v, Num):
+                v = to_sym(v)
+            if not isinstance(v, Sym) or len(v.items) != 3:
+                return self.err("STL205", "only a 3-D position can be in a region",
+                                n.arg.span, "e.g. `uav1.pos in workspace`")
+            if not units.compatible(v.dim, units.LENGTH):
+                return self.err("STL204", f"a region holds positions, found {units.describe(v.dim)}",
+                                n.arg.span)
+            f = box_membership(v.items, reg, self.text(n.span), n.span)
+        return Form(ir.Not(f, n.span) if n.negated else f)
+
+    def _v_range(self, n: ast.Range, scope: Scope) -> Value:
+        return self.err("STL208", "a range [lo, hi] may only follow `in`", n.span)
+
+    def _v_interval(self, n: ast.Interval, scope: Scope) -> Value:  # pragma: no cover
+        return self.err("STL208", "unexpected interval", n.span)
+
+
+@dataclass
+class _Pair:
+    left: ast.Node
+    right: ast.Node
+    span: Span
+
+
+# ---------------------------------------------------------------- shared helpers
+
+
+def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:
+    """``p in box`` as six predicates, in the human's frame when the box is attached to one."""
+    box = reg.box
+    if box.frame is not None:
+        p = world_to_frame(p, box.frame)
+    preds = []
+    for k, axis in enumerate("xyz"):
+        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span))
+        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span))
+    return ir.And(tuple(preds), span)
+
+
+def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
+    """R(att)ᵀ (p − pos) with R = Rz(yaw) Ry(pitch) Rx(roll), pose as IR parameters."""
+    d = [sub(p[k], ir.Param(f"{human}.pos.{a}")) for k, a in enumerate("xyz")]
+    r, pi_, y = (ir.Param(f"{human}.att.{a}") for a in "xyz")
+    cr, sr = ir.Call("cos", (r,)), ir.Call("sin", (r,))
+    cp, sp = ir.Call("cos", (pi_,)), ir.Call("sin", (pi_,))
+    cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
+    # rows of R^T = columns of R
+    R = [
+        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)), add(mul(mul(cy, sp), cr), mul(sy, sr))],
+        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)), sub(mul(mul(sy, sp), cr), mul(cy, sr))],
+        [neg(sp), mul(cp, sr), mul(cp, cr)],
+    ]
+    out = []
+    for j in range(3):  # (R^T d)_j = sum_i R[i][j] d_i
+        acc: ir.Expr = const(0.0)
+        for i in range(3):
+            acc = add(acc, mul(R[i][j], d[i]))
+        out.append(acc)
+    return tuple(out)
+
+
+def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
+    """The fields a formula may read from a vehicle, as IR signal expressions."""
+    n = v.name
+
+    def vec(field_: str, dim, names=("x", "y", "z")) -> Sym:
+        return Sym(tuple(ir.Sig(f"{n}.{field_}.{a}") for a in names), dim, True,
+                   tuple(f"{n}.{field_}.{a}" for a in names))
+
+    def scal(e: ir.Expr, dim, label: str) -> Sym:
+        return Sym((e,), dim, False, (label,))
+
+    vx, vy, vz = (ir.Sig(f"{n}.vel.{a}") for a in "xyz")
+    speed = ir.Call("sqrt", (add(add(mul(vx, vx), mul(vy, vy)), mul(vz, vz)),))
+    hspeed = ir.Call("sqrt", (add(mul(vx, vx), mul(vy, vy)),))
+    out: dict[str, Value] = {
+        "pos": vec("pos", units.LENGTH), "vel": vec("vel", units.SPEED),
+        "speed": scal(speed, units.SPEED, f"{n}.speed"),
+        "horizontal_speed": scal(hspeed, units.SPEED, f"{n}.horizontal_speed"),
+        "course": scal(ir.Call("atan2", (vy, vx)), units.ANGLE, f"{n}.course"),
+    }
+    if isinstance(v, model.Multirotor):
+        k = len(v.rotors)
+        idx = tuple(str(i + 1) for i in range(k))
+        out["att"] = vec("att", units.ANGLE)
+        out["rate"] = vec("rate", (0, 0, -1, 1))
+        out["heading"] = scal(ir.Sig(f"{n}.att.z"), units.ANGLE, f"{n}.heading")
+        out["force"] = vec("force", units.FORCE, idx)
+        out["dforce"] = vec("dforce", (1, 1, -3, 0), idx)
+        out["rotor_speed"] = Sym(
+            tuple(ir.Call("sqrt", (div(ir.Sig(f"{n}.force.{i}"), const(v.c_f)),)) for i in idx),
+            units.FREQ, True, tuple(f"{n}.rotor_speed.{i}" for i in idx))
+    else:
+        out["acc"] = vec("acc", units.ACCEL)
+        out["payload"] = scal(ir.Sig(f"{n}.payload"), None, f"{n}.payload")
+    return out
+
+
+def human_fields(h: model.Human, regions: dict[str, RegionV]) -> dict[str, Value]:
+    n = h.name
+    out: dict[str, Value] = {
+        "pos": Sym(tuple(ir.Param(f"{n}.pos.{a}") for a in "xyz"), units.LENGTH, True,
+                   tuple(f"{n}.pos.{a}" for a in "xyz")),
+        "att": Sym(tuple(ir.Param(f"{n}.att.{a}") for a in "xyz"), units.ANGLE, True,
+                   tuple(f"{n}.att.{a}" for a in "xyz")),
+        "heading": Sym((ir.Param(f"{n}.att.z"),), units.ANGLE, False, (f"{n}.heading",)),
+    }
+    out.update(regions)
+    return out
+
+
+def _component(part: str, size: int) -> int | None:
+    if part in AXIS_NAMES and size == 3:
+        return AXIS_NAMES[part]
+    if part.isdigit() and 1 <= int(part) <= size:
+        return int(part) - 1
+    return None
+
+
+def _broadcast(a: Sym, b: Sym):
+    if len(a.items) == len(b.items):
+        return list(zip(a.items, b.items))
+    if len(a.items) == 1:
+        return [(a.items[0], y) for y in b.items]
+    if len(b.items) == 1:
+        return [(x, b.items[0]) for x in a.items]
+    return None
+
+
+def _common_dim(dims):
+    known = {d for d in dims if d is not None}
+    if len(known) > 1:
+        return False
+    return known.pop() if known else None
+
+
+def _example(d: units.Dim | None) -> str:
+    u = units.example_unit(d)
+    return f"1 {u}" if u else "1"
+
+
+def _unit_hint(want, got) -> str | None:
+    u = units.example_unit(got)
+    return f"write the right-hand side in {u}" if u else None
+
+
+def _head_span(n: ast.Path) -> Span:
+    s = n.span
+    return Span(s.file, s.line, s.col, s.line, s.col + len(n.parts[0])) if s.known else s
+
+
+def _head_span_call(n: ast.Call) -> Span:
+    s = n.span
+    return Span(s.file, s.line, s.col, s.line, s.col + len(n.fn)) if s.known else s

@@ -1,0 +1,414 @@
+"""Risk analysis of a fixed plan under uncertain scenario parameters (paper A §3.5, §4.3).
+
+The plan (channels) is fixed; the human pose is drawn K times (``stlc.sampling``) and the
+robustness ρ of the requirement and of every named spec is evaluated for all K realisations
+at once through the monitor's parameter broadcasting.  The risk measures are defined on the
+*cost* Z = −ρ, as in the paper, and reported back in robustness terms.
+
+Conventions (r_(1) ≤ … ≤ r_(K) are the sorted robustness samples, F̂ the empirical CDF of ρ)
+----------------------------------------------------------------------------------------
+* satisfied ⇔ ρ > 0; a realisation with ρ ≤ 0 counts as a violation.
+* DKW margin ε = sqrt(ln(2/δ) / (2K)): with probability ≥ 1 − δ the true CDF lies in the
+  band F̂ − ε ≤ F ≤ F̂ + ε everywhere (Dvoretzky–Kiefer–Wolfowitz–Massart).
+* VaR: VaR_β(Z) = inf{α | F_Z(α) ≥ β}.  Reported ``value`` = −VaR_β(Z) with the empirical
+  CDF = r_(K−⌈βK⌉+1): the robustness level the plan keeps with probability β
+  (P̂(ρ ≥ value) ≥ β).  Bounds, eq. (11): the upper VaR of Z (F̂_Z − ε ≥ β) gives the
+  robustness ``lower`` = r_(K−⌈(β+ε)K⌉+1), −inf when β + ε > 1; the lower VaR of Z
+  (F̂_Z + ε ≥ β) gives ``upper`` = r_(K−⌈(β−ε)K⌉+1), +inf when β − ε ≤ 0.
+* CVaR: CVaR_β(Z) = inf_α (α + E[(Z − α)⁺]/(1 − β)) = (1/(1−β)) ∫_β^1 F_Z⁻¹(u) du, so
+  −CVaR_β(Z) = (1/a) ∫_0^a F_ρ⁻¹(v) dv with a = 1 − β: the mean robustness of the worst
+  (1 − β) fraction of realisations.  Empirically, with m = aK,
+  ``value`` = (Σ_{i ≤ ⌊m⌋} r_(i) + (m − ⌊m⌋) r_(⌊m⌋+1)) / m.
+  Bounds: CVaR is monotone in first-order stochastic dominance, so it is bracketed by the
+  CVaR of the two extreme distributions of the DKW band.  With I(s, t) = ∫_s^t F̂⁻¹(v) dv
+  and a support [L, U] for ρ:
+    ``lower`` = (min(ε, a)·L + I(0, max(a − ε, 0))) / a   — CDF min(F̂ + ε, 1): mass ε at L,
+    ``upper`` = (I(ε, min(a + ε, 1)) + max(a + ε − 1, 0)·U) / a — CDF (F̂ − ε)⁺: mass ε at U.
+  Without a known support the DKW band lets the mass ε sit at ρ = −∞ and the lower bound
+  is −inf; by default [L, U] is the observed sample range [r_(1), r_(K)] (an empirical
+  assumption, recorded as ``cvar_support = "sample"``); pass ``support`` for a rigorous one.
+* Unbounded ends are ±inf in the Python results and ``null`` in JSON.
+* p_violation: fraction of ρ ≤ 0, with a one-sided Clopper–Pearson upper bound at
+  confidence 1 − δ, computed without scipy (regularised incomplete beta by continued
+  fraction, inverted by bisection).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from stlc.ir import Formula
+from stlc.model import Normal, RiskCase, RiskConfig
+from stlc.sampling import (
+    SamplingError,
+    human_frame_point,
+    merge_distributions,
+    sample_params,
+    scenario_distributions,
+)
+
+__all__ = [
+    "CaseResult", "RiskError", "SamplingError", "clopper_pearson_upper", "cvar_bounds",
+    "dkw_margin", "evaluate_case", "evaluate_risk", "human_frame_point", "run_cases",
+    "p_violation", "sample_params", "save_samples", "scenario_distributions", "var_bounds",
+]
+
+
+class RiskError(ValueError):
+    """Invalid input to a risk measure (empty sample, NaN, β or δ out of range)."""
+
+
+# --------------------------------------------------------------------------- risk measures
+
+
+def dkw_margin(K: int, delta: float) -> float:
+    """ε = sqrt(ln(2/δ)/(2K)), the two-sided DKW band half-width at confidence 1 − δ."""
+    if not 0.0 < delta < 1.0:
+        raise RiskError(f"delta must be in (0, 1), got {delta}")
+    return math.sqrt(math.log(2.0 / delta) / (2.0 * K))
+
+
+def _units(p: float, K: int) -> float:
+    """p·K in sample units, rounded so that 0.7·15000 is 10500 and not 10500.000000000002."""
+    return round(p * K, 9)
+
+
+def _sorted(rho) -> np.ndarray:
+    r = np.asarray(rho, dtype=float).ravel()
+    if r.size == 0:
+        raise RiskError("no robustness samples")
+    if np.any(np.isnan(r)):
+        raise RiskError("robustness samples contain NaN")
+    return np.sort(r)
+
+
+def _check_beta(beta: float) -> None:
+    if not 0.0 < beta < 1.0:
+        raise RiskError(f"beta must be in (0, 1), got {beta}")
+
+
+def _var_z(r: np.ndarray, p: float) -> float:
+    """−inf{α | F̂_Z(α) ≥ p} in robustness terms (r sorted ascending, Z = −ρ)."""
+    K = r.size
+    s = _units(p, K)
+    if s > K:
+        return -math.inf  # no α reaches the level: VaR of Z is +inf
+    if s <= 0:
+        return math.inf  # every α qualifies: VaR of Z is −inf
+    k = max(1, math.ceil(s))
+    return float(r[K - k])
+
+
+def var_bounds(rho, beta: float, delta: float) -> dict[str, float]:
+    """Empirical VaR_β of Z = −ρ and its DKW bounds (eq. 11), in robustness terms.
+
+    Returns ``{"value", "lower", "upper"}`` with lower ≤ value ≤ upper (see the module
+    docstring for the formulas); ``lower`` may be −inf and ``upper`` +inf.
+    """
+    _check_beta(beta)
+    r = _sorted(rho)
+    eps = dkw_margin(r.size, delta)
+    return {"value": _var_z(r, beta), "lower": _var_z(r, beta + eps),
+            "upper": _var_z(r, beta - eps)}
+
+
+def _integral(r: np.ndarray, s1: float, s2: float) -> float:
+    """K · ∫ F̂⁻¹(v) dv over [s1/K, s2/K] (s in sample units), F̂⁻¹(v) = r_(⌈vK⌉)."""
+    K = r.size
+    s1, s2 = max(0.0, min(s1, K)), max(0.0, min(s2, K))
+    if s2 <= s1:
+        return 0.0
+    i = np.arange(1, K + 1, dtype=float)
+    w = np.clip(np.minimum(i, s2) - np.maximum(i - 1.0, s1), 0.0, 1.0)
+    nz = w > 0
+    return float(np.dot(w[nz], r[nz]))
+
+
+def _mass_term(mass: float, at: float) -> float:
+    return 0.0 if mass <= 0 else mass * at
+
+
+def cvar_bounds(rho, beta: float, delta: float,
+                support: tuple[float, float] | None = None) -> dict[str, float]:
+    """Empirical CVaR_β of Z = −ρ and bounds from the DKW band, in robustness terms.
+
+    ``value`` is the mean robustness of the worst (1 − β) fraction of realisations;
+    ``lower``/``upper`` are the CVaR of the pessimistic/optimistic edge of the DKW band
+    (module docstring).  ``support = (L, U)`` bounds ρ; default: the sample range.
+    """
+    _check_beta(beta)
+    r = _sorted(rho)
+    K = r.size
+    eps = dkw_margin(K, delta)
+    lo_s, hi_s = (float(r[0]), float(r[-1])) if support is None else map(float, support)
+    if lo_s > r[0] or hi_s < r[-1]:
+        raise RiskError(f"samples outside the given support [{lo_s}, {hi_s}]")
+    a = 1.0 - beta
+    m = _units(a, K)
+    e = _units(eps, K)
+    value = _integral(r, 0.0, m) / m
+    lower = (_mass_term(min(e, m), lo_s) + _integral(r, 0.0, m - e)) / m
+    upper = (_integral(r, e, m + e) + _mass_term(m + e - K, hi_s)) / m
+    return {"value": value, "lower": lower, "upper": upper}
+
+
+# --------------------------------------------------------------------------- p(violation)
+
+
+def _betacf(a: float, b: float, x: float) -> float:
+    """Continued fraction of the incomplete beta function (modified Lentz)."""
+    tiny, eps = 1e-300, 1e-15
+    qab, qap, qam = a + b, a + 1.0, a - 1.0
+    c, d = 1.0, 1.0 - qab * x / qap
+    d = 1.0 / (d if abs(d) > tiny else tiny)
+    h = d
+    for m in range(1, 100_000):
+        m2 = 2 * m
+        for aa in (m * (b - m) * x / ((qam + m2) * (a + m2)),
+                   -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))):
+            d = 1.0 + aa * d
+            d = 1.0 / (d if abs(d) > tiny else tiny)
+            c = 1.0 + aa / c
+            c = c if abs(c) > tiny else tiny
+            h *= d * c
+        if abs(d * c - 1.0) < eps:
+            break
+    return h
+
+
+def betainc(a: float, b: float, x: float) -> float:
+    """Regularised incomplete beta function I_x(a, b) for a, b > 0."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    log_front = (math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b)
+                 + a * math.log(x) + b * math.log1p(-x))
+    if x < (a + 1.0) / (a + b + 2.0):
+        return math.exp(log_front) * _betacf(a, b, x) / a
+    return 1.0 - math.exp(log_front) * _betacf(b, a, 1.0 - x) / b
+
+
+def beta_ppf(q: float, a: float, b: float) -> float:
+    """Quantile of the Beta(a, b) distribution by bisection on ``betainc``."""
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if betainc(a, b, mid) < q:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-15:
+            break
+    return 0.5 * (lo + hi)
+
+
+def clopper_pearson_upper(count: int, K: int, delta: float) -> float:
+    """One-sided Clopper–Pearson upper bound at confidence 1 − δ on a binomial proportion:
+    the (1 − δ)-quantile of Beta(count + 1, K − count); 1 when count = K."""
+    if not 0.0 < delta < 1.0:
+        raise RiskError(f"delta must be in (0, 1), got {delta}")
+    if count >= K:
+        return 1.0
+    return beta_ppf(1.0 - delta, count + 1.0, float(K - count))
+
+
+def p_violation(rho, delta: float) -> dict[str, float]:
+    """Fraction of realisations with ρ ≤ 0 and its Clopper–Pearson upper bound."""
+    r = _sorted(rho)
+    count = int(np.count_nonzero(r <= 0.0))
+    return {"value": count / r.size, "upper": clopper_pearson_upper(count, r.size, delta),
+            "count": count}
+
+
+def summarize(rho, betas: Sequence[float], delta: float,
+              support: tuple[float, float] | None = None) -> dict:
+    """VaR/CVaR for every β (keys ``f"{β:g}"``), p_violation and sample statistics."""
+    r = _sorted(rho)
+    return {
+        "var": {f"{b:g}": var_bounds(r, b, delta) for b in betas},
+        "cvar": {f"{b:g}": cvar_bounds(r, b, delta, support) for b in betas},
+        "p_violation": p_violation(r, delta),
+        "mean": float(np.mean(r)), "min": float(r[0]), "max": float(r[-1]),
+    }
+
+
+# --------------------------------------------------------------------------- case evaluation
+
+RobustnessFn = Callable[..., "float | np.ndarray"]
+
+
+@dataclass
+class CaseResult:
+    """Everything computed for one risk case; ``to_json`` is the report contract."""
+
+    name: str
+    K: int
+    delta: float
+    seed: int
+    betas: tuple[float, ...]
+    epsilon: float
+    params: dict[str, np.ndarray]  # sampled parameters, shape (K,) each
+    exact: dict[str, np.ndarray]  # "requirement" and every named spec → (K,)
+    smooth: dict[str, np.ndarray]  # same keys, smooth robustness (empty if not computed)
+    specs: tuple[str, ...]
+    nominal_robustness: float
+    support: tuple[float, float] | None = None  # CVaR support of ρ; None = sample range
+    exact_summary: dict = field(default_factory=dict)
+    smooth_summary: dict = field(default_factory=dict)
+    spec_summary: dict = field(default_factory=dict)
+    drivers: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        ex = self.exact_summary
+        out = {
+            "name": self.name, "K": self.K, "delta": self.delta, "seed": self.seed,
+            "epsilon": self.epsilon, "robustness": "exact",
+            "cvar_support": "sample" if self.support is None else _json(list(self.support)),
+            "params": sorted(self.params),
+            "nominal_robustness": _num(self.nominal_robustness),
+            "var": _json(ex["var"]), "cvar": _json(ex["cvar"]),
+            "p_violation": _json(ex["p_violation"]),
+            "mean": _num(ex["mean"]), "min": _num(ex["min"]), "max": _num(ex["max"]),
+            "specs": _json(self.spec_summary), "drivers": _json(self.drivers),
+        }
+        if self.smooth_summary:
+            out["smooth"] = _json(self.smooth_summary)
+        return out
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def _json(d):
+    if isinstance(d, dict):
+        return {k: _json(v) for k, v in d.items()}
+    if isinstance(d, list | tuple):
+        return [_json(v) for v in d]
+    if isinstance(d, bool | int | str) or d is None:
+        return d
+    return _num(float(d))
+
+
+def _default_monitor() -> RobustnessFn:
+    from stlc import monitor
+    return monitor.robustness
+
+
+def _default_smooth() -> RobustnessFn:
+    from stlc import smooth
+    return smooth.smooth_robustness
+
+
+def _per_realisation(value, K: int) -> np.ndarray:
+    """A monitor result as shape (K,): a formula without sampled params gives a scalar."""
+    v = np.asarray(value, dtype=float)
+    if v.ndim == 0:
+        return np.full(K, float(v))
+    if v.shape != (K,):
+        raise RiskError(f"monitor returned shape {v.shape}, expected ({K},)")
+    return v
+
+
+def violation_drivers(requirement: np.ndarray, specs: Mapping[str, np.ndarray]) -> dict:
+    """For each realisation violating the requirement (ρ ≤ 0), the named spec with the
+    lowest robustness (ties: the first declared); counts and fractions per spec."""
+    bad = requirement <= 0.0
+    n_bad = int(np.count_nonzero(bad))
+    names = list(specs)
+    counts = np.zeros(len(names), dtype=int)
+    if names and n_bad:
+        stack = np.stack([specs[n][bad] for n in names])
+        counts = np.bincount(np.argmin(stack, axis=0), minlength=len(names))
+    return {n: {"count": int(c), "fraction": (int(c) / n_bad if n_bad else 0.0)}
+            for n, c in zip(names, counts, strict=True)}
+
+
+def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
+                  specs: Mapping[str, Formula], dt: float,
+                  channels: Mapping[str, np.ndarray], nominal_params: Mapping[str, float],
+                  lam: float = 10.0, method: str = "gkl", *,
+                  base: Sequence[Normal] = (), with_smooth: bool = True,
+                  support: tuple[float, float] | None = None,
+                  robustness_fn: RobustnessFn | None = None,
+                  smooth_fn: RobustnessFn | None = None) -> CaseResult:
+    """Sample the case's distributions (overriding ``base`` ones parameter by parameter),
+    evaluate exact (and smooth) robustness of the requirement and every named spec for
+    all K realisations — one vectorised monitor call per formula — and summarise.
+
+    ``robustness_fn``/``smooth_fn`` default to ``stlc.monitor.robustness`` and
+    ``stlc.smooth.smooth_robustness``.  All realisations use ``cfg.seed`` (common random
+    numbers across cases, so cases differ only by their distributions).  ``support``
+    bounds the exact ρ for its CVaR bounds (default, and always for the smooth ρ̃: the
+    sample range, see ``cvar_bounds``).
+    """
+    K = cfg.K
+    rob = robustness_fn or _default_monitor()
+    dists = merge_distributions(base, case.distributions)
+    params = sample_params(nominal_params, dists, K, cfg.seed)
+    sampled = {k: v for k, v in params.items() if isinstance(v, np.ndarray)}
+    chans = dict(channels)
+    formulas = {"requirement": requirement, **{f"spec:{n}": f for n, f in specs.items()}}
+    exact = {k: _per_realisation(rob(f, dt, chans, params), K) for k, f in formulas.items()}
+    smooth: dict[str, np.ndarray] = {}
+    if with_smooth:
+        smo = smooth_fn or _default_smooth()
+        smooth = {k: _per_realisation(smo(f, dt, chans, params, lam, method=method), K)
+                  for k, f in formulas.items()}
+    nominal = float(rob(requirement, dt, chans, {k: float(v) for k, v in
+                                                  nominal_params.items()}))
+    spec_rho = {n: exact[f"spec:{n}"] for n in specs}
+    drivers = violation_drivers(exact["requirement"], spec_rho)
+    spec_summary = {}
+    for n, r in spec_rho.items():
+        pv = p_violation(r, cfg.delta)
+        spec_summary[n] = {"p_violation": pv["value"], "p_violation_upper": pv["upper"],
+                           "min": float(np.min(r)), "driver_count": drivers[n]["count"],
+                           "driver_fraction": drivers[n]["fraction"]}
+    return CaseResult(
+        name=case.name, K=K, delta=cfg.delta, seed=cfg.seed, betas=tuple(cfg.betas),
+        epsilon=dkw_margin(K, cfg.delta), params=sampled, exact=exact, smooth=smooth,
+        specs=tuple(specs), nominal_robustness=nominal, support=support,
+        exact_summary=summarize(exact["requirement"], cfg.betas, cfg.delta, support),
+        smooth_summary=(summarize(smooth["requirement"], cfg.betas, cfg.delta)
+                        if with_smooth else {}),
+        spec_summary=spec_summary, drivers=drivers,
+    )
+
+
+def run_cases(cfg: RiskConfig, *args, **kwargs) -> list[CaseResult]:
+    """``evaluate_case`` for every case of ``cfg`` in declared order (same arguments
+    after ``case, cfg``)."""
+    return [evaluate_case(case, cfg, *args, **kwargs) for case in cfg.cases]
+
+
+def evaluate_risk(cfg: RiskConfig, *args, samples_path: str | None = None,
+                  **kwargs) -> dict:
+    """``{"cases": [CaseResult.to_json(), …]}`` in declared order; with ``samples_path``
+    the per-realisation arrays are also written there (``save_samples``)."""
+    results = run_cases(cfg, *args, **kwargs)
+    if samples_path is not None:
+        save_samples(samples_path, results)
+    return {"cases": [r.to_json() for r in results]}
+
+
+def save_samples(path_npz, results: Sequence[CaseResult]) -> None:
+    """Write every per-realisation array with ``np.savez_compressed``.
+
+    Keys: ``cases`` (names), and per case ``<case>/exact/requirement``,
+    ``<case>/exact/spec:<name>``, ``<case>/smooth/…`` (same), ``<case>/param/<param>``,
+    ``<case>/meta`` = [K, delta, seed, epsilon] and ``<case>/betas``.
+    """
+    arrays: dict[str, np.ndarray] = {"cases": np.array([r.name for r in results])}
+    for r in results:
+        for kind, d in (("exact", r.exact), ("smooth", r.smooth), ("param", r.params)):
+            for k, v in d.items():
+                arrays[f"{r.name}/{kind}/{k}"] = np.asarray(v)
+        arrays[f"{r.name}/meta"] = np.array([r.K, r.delta, r.seed, r.epsilon], dtype=float)
+        arrays[f"{r.name}/betas"] = np.array(r.betas, dtype=float)
+    np.savez_compressed(path_npz, **arrays)
