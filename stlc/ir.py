@@ -330,3 +330,40 @@ def depth(f: Formula) -> int:
 
 
 INF = math.inf
+
+
+def restrict(f: Formula, keep) -> Formula:
+    """Replace every predicate that reads a signal for which ``keep(name)`` is false by
+    ``true`` and simplify (NNF input).  Used to build a kinematic initial-guess problem
+    from the position/velocity part of a requirement."""
+    match f:
+        case Pred(expr):
+            ok = all(keep(leaf.name) for leaf in expr_leaves(expr) if isinstance(leaf, Sig))
+            return f if ok else TrueF(f.span)
+        case TrueF() | FalseF():
+            return f
+        case And(args, span) | Or(args, span):
+            kids = [restrict(a, keep) for a in args]
+            is_and = isinstance(f, And)
+            if not is_and and any(isinstance(k, TrueF) for k in kids):
+                return TrueF(span)
+            kids = [k for k in kids if not isinstance(k, TrueF)] if is_and else kids
+            if is_and and any(isinstance(k, FalseF) for k in kids):
+                return FalseF(span)
+            if not kids:
+                return TrueF(span)
+            return kids[0] if len(kids) == 1 else type(f)(tuple(kids), span)
+        case Always(lo, hi, a, span) | Eventually(lo, hi, a, span):
+            k = restrict(a, keep)
+            return k if isinstance(k, (TrueF, FalseF)) else type(f)(lo, hi, k, span)
+        case Until(lo, hi, a, b, span) | Release(lo, hi, a, b, span):
+            ka, kb = restrict(a, keep), restrict(b, keep)
+            if isinstance(f, Until) and isinstance(ka, TrueF):
+                return restrict(Eventually(lo, hi, b, span), keep)
+            if isinstance(f, Release) and isinstance(kb, TrueF):
+                return TrueF(span)
+            return type(f)(lo, hi, ka, kb, span)
+        case Next(a, span):
+            k = restrict(a, keep)
+            return k if isinstance(k, (TrueF, FalseF)) else Next(k, span)
+    raise TypeError(f"restrict expects an NNF formula, got {f!r}")

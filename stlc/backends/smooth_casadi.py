@@ -181,9 +181,11 @@ class _Lowerer:
     lifts like ``"aux"`` but keep the expressions, recording them as aux initial values) or
     ``"aux"`` (introduce aux variables and constraints)."""
 
-    def __init__(self, grid: TimeGrid, env: ExprEnv, mode: str, dyadic: bool, lift_span: int):
+    def __init__(self, grid: TimeGrid, env: ExprEnv, mode: str, dyadic: bool, lift_span: int,
+                 hypograph: bool = True):
         self.grid, self.n, self.env, self.lam = grid, grid.n, env, env.lam
         self.mode, self.dyadic, self.lift_span = mode, dyadic, lift_span
+        self.hypograph = hypograph
         self.min_alg, self.max_alg = MinAlg(), max_alg(env.method)
         self.rows: dict[ir.Formula, _Row] = {}
         self.aux: list[ca.SX] = []
@@ -210,7 +212,8 @@ class _Lowerer:
         for c, kind in zip(v.comps, kinds):
             r = ca.SX.sym(f"r{len(self.aux)}", 1, c.numel())
             self.aux.append(r.T)
-            (self.g if kind == "ineq" else self.h).append((c - r).T)
+            ineq = kind == "ineq" and self.hypograph
+            (self.g if ineq else self.h).append((c - r).T)
             syms.append(r)
         return _Val(tuple(syms), 1)
 
@@ -435,8 +438,8 @@ def _is_symbolic(x: object) -> bool:
 
 def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX],
                      params: Mapping[str, Num], lam: Num, method: str = "gkl",
-                     lift: bool = True, dyadic: bool = True,
-                     lift_span: int = 4) -> LoweredRobustness:
+                     lift: bool = True, dyadic: bool = True, lift_span: int = 4,
+                     hypograph: bool = True) -> LoweredRobustness:
     """Smooth robustness of the NNF formula ``f`` at sample 0 as CasADi SX.
 
     ``channels`` maps each signal to a 1×n SX row (n = ``grid.n``; entries may be decision
@@ -473,7 +476,8 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
 
     if lift:
         chans = {s: ca.SX(channels[s]) for s in sigs}
-        lw = _Lowerer(grid, ExprEnv(chans, dict(params), lam, method), "aux", dyadic, lift_span)
+        lw = _Lowerer(grid, ExprEnv(chans, dict(params), lam, method), "aux", dyadic, lift_span,
+                      hypograph)
         root = lw.run(f)
         aux = ca.vertcat(*lw.aux) if lw.aux else ca.SX(0, 1)
         g = ca.vertcat(*lw.g) if lw.g else ca.SX(0, 1)

@@ -39,6 +39,7 @@ COLORS = {
 WINDOW_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 STATUS_LABELS = {"satisfied": "Satisfied", "violated": "Violated",
                  "solver_failed": "Solver failed"}
+STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "smooth ρ̃", "exact": "exact ρ"}
 TIMING_ORDER = ("parse_s", "check_s", "build_s", "solve_s", "total_s")
 #: corner k of a box has x = hi iff bit 0 of k is set, y iff bit 1, z iff bit 2
 CORNER_BITS = tuple((k & 1, (k >> 1) & 1, (k >> 2) & 1) for k in range(8))
@@ -143,15 +144,16 @@ def hull_xy(points: np.ndarray) -> list[list[float | None]]:
     return [[num(x), num(y)] for x, y in ring]
 
 
-def region_role(name: str, kind: str) -> str:
-    """Colour role of a region: by kind first, then by the words in its name."""
+def region_role(name: str, kind: str, frame: str | None = None) -> str:
+    """Colour role of a region: by kind first, then by the words in its name (without a
+    ``human.`` prefix); any other region attached to a human is part of an approach."""
     if kind == "workspace":
         return "workspace"
     if kind == "obstacle":
         return "nofly"
     if kind in ("home", "station"):
         return kind
-    low = name.lower()
+    low = name.lower().rsplit(".", 1)[-1]
     flat = re.sub(r"[^a-z]", "", low)
     words = set(re.split(r"[^a-z]+", low))
     if "behind" in flat or "nofly" in flat:
@@ -163,7 +165,7 @@ def region_role(name: str, kind: str) -> str:
         return "approach"
     if kind == "target":
         return "target"
-    return "region"
+    return "approach" if frame else "region"
 
 
 ROLE_LABELS = {"nofly": "no-fly", "visibility": "visibility", "approach": "approach",
@@ -209,6 +211,14 @@ def _pair(v: object) -> tuple[float | None, float | None]:
     return vals[0], vals[1]
 
 
+def _cell(v: object) -> str:
+    if isinstance(v, bool) or v is None or isinstance(v, str):
+        return "—" if v is None else str(v)
+    if isinstance(v, int):
+        return str(v)
+    return fmt(v)
+
+
 def _spec_line(program: Program, mission: Mission, name: str, given: int) -> int:
     if given:
         return given
@@ -237,13 +247,20 @@ def _anchor(line: int, n_lines: int) -> str:
 
 
 def _summary(program: Program, mission: Mission, sol: Solution) -> dict:
-    smoothing = {"method": mission.smoothing.method, "lam": mission.smoothing.lam,
-                 **sol.smoothing}
+    smoothing = {"method": mission.smoothing.method, **sol.smoothing}
+    declared = smoothing.get("lambda", smoothing.get("lam", mission.smoothing.lam))
+    lam = smoothing.get("lambda_final", smoothing.get("lam", declared))
+    lam_text = fmt(lam)
+    if num(declared) is not None and num(lam) != num(declared):
+        lam_text += f" (declared {fmt(declared)})"
     timing = [{"name": k.removesuffix("_s"), "text": fmt(sol.timing[k], 3, unit="s")}
               for k in (*TIMING_ORDER, *sorted(set(sol.timing) - set(TIMING_ORDER)))
               if k in sol.timing]
     solver_extra = [{"name": str(k), "text": str(v)} for k, v in sol.solver.items()
-                    if k not in ("name", "iterations", "return_status")]
+                    if k not in ("name", "iterations", "return_status", "stages")]
+    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.get("stages") or []
+              if isinstance(s, dict) or hasattr(s, "__dict__")]
+    stage_keys = list(dict.fromkeys(k for s in stages for k in s))
     n = len(sol.times)
     return {
         "mission": sol.mission or mission.name,
@@ -270,9 +287,11 @@ def _summary(program: Program, mission: Mission, sol: Solution) -> dict:
         "return_status": str(sol.solver.get("return_status", "—")),
         "solver_extra": solver_extra,
         "smoothing_method": str(smoothing.get("method", "—")),
-        "smoothing_lam_text": fmt(smoothing.get("lam")),
+        "smoothing_lam_text": lam_text,
         "smoothing_schedule": ", ".join(fmt(x) for x in smoothing.get("schedule") or []),
         "problem_size": [{"name": str(k), "text": str(v)} for k, v in sol.problem_size.items()],
+        "stages": {"columns": [STAGE_LABELS.get(k, k) for k in stage_keys],
+                   "rows": [[_cell(s.get(k)) for k in stage_keys] for s in stages]},
         "objective": {
             "robustness_weight_text": fmt(mission.objective.robustness_weight),
             "energy_weight_text": fmt(mission.objective.energy_weight),
@@ -305,8 +324,7 @@ def _spec_rows(program: Program, mission: Mission, sol: Solution,
             "anchor": _anchor(line, n_lines),
             "predicate_line": pline,
             "predicate_anchor": _anchor(pline, n_lines),
-            "window_text": ", ".join(f"[{fmt(w['start'])}, {fmt(w['end'])}] s" for w in win)
-            or "—",
+            "window_text": ", ".join(w["text"] for w in win) or "—",
         })
     worst = max((abs(row["robustness"]) for row in rows if row["robustness"] is not None),
                 default=0.0) or 1.0
@@ -355,10 +373,11 @@ def _windows(program: Program, mission: Mission, sol: Solution) -> list[dict]:
             if isinstance(f, ir.Always | ir.Eventually | ir.Until | ir.Release):
                 out.append({"spec": name, "start": num(f.lo),
                             "end": num(min(f.hi, mission.horizon))})
-    colors = {}
+    colors: dict[str, str] = {}
     for w in out:
         colors.setdefault(w["spec"], WINDOW_COLORS[len(colors) % len(WINDOW_COLORS)])
         w["color"] = colors[w["spec"]]
+        w["text"] = f"[{fmt(w['start'])}, {fmt(w['end'])}] s"
     return [w for w in out if w["start"] is not None and w["end"] is not None]
 
 
@@ -393,10 +412,11 @@ def _scene(program: Program, mission: Mission, sol: Solution) -> dict:
     clip = (lo, hi)
     boxes = []
     for r in program.scenario.regions:
-        role = region_role(r.name, r.kind)
+        role = region_role(r.name, r.kind, r.box.frame)
         corners = box_corners(r.box, humans, clip)
         boxes.append({
-            "name": r.name, "kind": r.kind, "frame": r.box.frame, "role": role,
+            "name": r.name, "label": r.name.rsplit(".", 1)[-1] if r.box.frame else r.name,
+            "kind": r.kind, "frame": r.box.frame, "role": role,
             "role_label": ROLE_LABELS[role], "color": COLORS[role],
             "wireframe": role == "workspace",
             "corners": [nums(c) for c in corners],

@@ -26,7 +26,7 @@
   function baseLayout(extra) {
     var l = { font: FONT, margin: { l: 58, r: 18, t: 36, b: 44 }, paper_bgcolor: "#fff",
               plot_bgcolor: "#fff", hovermode: "x unified",
-              legend: { orientation: "h", y: -0.2, x: 0, font: { size: 11 } } };
+              legend: { orientation: "h", y: -0.12, yanchor: "top", x: 0, font: { size: 11 } } };
     for (var k in extra) { if (Object.prototype.hasOwnProperty.call(extra, k)) l[k] = extra[k]; }
     return l;
   }
@@ -50,7 +50,7 @@
     });
     return { type: "scatter3d", mode: "lines", x: x, y: y, z: z, name: txt(b.name),
              legendgroup: "box-" + b.name, showlegend: b.wireframe, hoverinfo: "name",
-             line: { color: b.color, width: b.wireframe ? 2 : 3, dash: b.wireframe ? "dash" : "solid" } };
+             line: { color: b.color, width: b.wireframe ? 1.5 : 3 } };
   }
   function meshTrace(b) {
     return { type: "mesh3d", x: b.corners.map(function (c) { return c[0]; }),
@@ -75,23 +75,51 @@
                     hoverinfo: "skip", line: { color: "#111", width: 5 }, legendgroup: "h-" + h.name });
     });
     s.trajectories.forEach(function (tr, n) {
+      /* no legend entry: plotly cannot draw a legend symbol for a colour-array line */
       traces.push({ type: "scatter3d", mode: "lines+markers", x: tr.x, y: tr.y, z: tr.z,
-                    name: txt(tr.vehicle), customdata: tr.t,
+                    name: txt(tr.vehicle), customdata: tr.t, showlegend: false,
                     line: { color: tr.t, colorscale: "Viridis", width: 6 },
                     marker: { size: 2.5, color: tr.t, colorscale: "Viridis", showscale: n === 0,
                               colorbar: { title: { text: "t (s)" }, thickness: 12, len: 0.6 } },
                     hovertemplate: txt(tr.vehicle) + "<br>t = %{customdata} s<br>(%{x}, %{y}, %{z})<extra></extra>" });
-      traces.push({ type: "scatter3d", mode: "markers", x: [tr.x[0]], y: [tr.y[0]], z: [tr.z[0]],
-                    name: txt(tr.vehicle) + " start", showlegend: false,
+      traces.push({ type: "scatter3d", mode: "markers+text", x: [tr.x[0]], y: [tr.y[0]], z: [tr.z[0]],
+                    name: txt(tr.vehicle) + " start", showlegend: false, text: [txt(tr.vehicle)],
+                    textposition: "bottom center", hovertemplate: txt(tr.vehicle) + " start<extra></extra>",
                     marker: { size: 5, color: "#fff", line: { color: "#111", width: 2 }, symbol: "circle" } });
     });
     var ax = function (t) { return { title: { text: t }, backgroundcolor: "#f7f9fb", showbackground: true,
                                      gridcolor: "#dde2e8", zerolinecolor: "#b8c0cc" }; };
     draw("scene-3d", traces, baseLayout({
       title: { text: "3D view", x: 0.02, font: { size: 13 } }, hovermode: "closest",
-      margin: { l: 0, r: 0, t: 32, b: 0 }, legend: { x: 0, y: 1, bgcolor: "rgba(255,255,255,0.7)", font: { size: 11 } },
+      margin: { l: 0, r: 0, t: 32, b: 0 },
+      legend: { orientation: "h", x: 0, y: 0, yanchor: "top", font: { size: 11 } },
       scene: { aspectmode: "data", xaxis: ax("x (m)"), yaxis: ax("y (m)"), zaxis: ax("z (m)"),
-               camera: { eye: { x: -1.25, y: -1.45, z: 0.95 } } } }));
+               camera: { eye: { x: -1.45, y: -1.75, z: 1.2 }, center: { x: 0, y: 0, z: -0.1 } } } }));
+  }
+  function centroid(ring, axis) {
+    var pts = ring.slice(0, -1), sum = 0;
+    pts.forEach(function (p) { sum += p[axis]; });
+    return sum / pts.length;
+  }
+  /* region names for the top view, largest regions first, skipping any label that would
+     overlap one already placed (plotly does not avoid label collisions) */
+  function topLabels(s) {
+    var dx = 0.07 * Math.max(1e-9, s.extent.hi[0] - s.extent.lo[0]);
+    var dy = 0.035 * Math.max(1e-9, s.extent.hi[1] - s.extent.lo[1]);
+    var cands = s.boxes.filter(function (b) { return !b.wireframe && b.hull_xy.length > 2; })
+      .map(function (b) {
+        var xs = b.hull_xy.map(function (p) { return p[0]; }), ys = b.hull_xy.map(function (p) { return p[1]; });
+        var area = (Math.max.apply(null, xs) - Math.min.apply(null, xs)) *
+                   (Math.max.apply(null, ys) - Math.min.apply(null, ys));
+        return { box: b, x: centroid(b.hull_xy, 0), y: centroid(b.hull_xy, 1), area: area };
+      })
+      .sort(function (a, b) { return b.area - a.area; });
+    var placed = [];
+    cands.forEach(function (c) {
+      var clash = placed.some(function (p) { return Math.abs(p.x - c.x) < dx && Math.abs(p.y - c.y) < dy; });
+      if (!clash) placed.push(c);
+    });
+    return placed;
   }
   function sceneTop(s) {
     var traces = [];
@@ -103,6 +131,11 @@
                     hoveron: "fills+points", hovertemplate: txt(b.name) + " · " + b.role_label + "<extra></extra>",
                     showlegend: false });
     });
+    var labels = topLabels(s);
+    traces.push({ type: "scatter", mode: "text", showlegend: false, hoverinfo: "skip",
+                  x: labels.map(function (l) { return l.x; }), y: labels.map(function (l) { return l.y; }),
+                  text: labels.map(function (l) { return txt(l.box.label); }),
+                  textfont: { size: 10, color: labels.map(function (l) { return l.box.color; }) } });
     s.humans.forEach(function (h) {
       traces.push({ type: "scatter", mode: "lines", x: [h.pos[0], h.facing[0]], y: [h.pos[1], h.facing[1]],
                     line: { color: "#111", width: 3 }, showlegend: false, hoverinfo: "skip" });
@@ -129,15 +162,16 @@
     var shapes = [], notes = [];
     sig.windows.forEach(function (w, k) {
       shapes.push({ type: "rect", xref: "x", yref: "paper", x0: w.start, x1: w.end, y0: 0, y1: 1,
-                    fillcolor: w.color, opacity: 0.09, line: { width: 0 }, layer: "below" });
+                    fillcolor: w.color, opacity: 0.07, line: { width: 0 }, layer: "below" });
       notes.push({ xref: "x", yref: "paper", x: w.start, y: 1 - 0.085 * k, xanchor: "left", yanchor: "top",
                    text: txt(w.spec), showarrow: false, font: { size: 10, color: w.color } });
     });
     sig.markers.forEach(function (m) {
       shapes.push({ type: "line", xref: "x", yref: "paper", x0: m.t, x1: m.t, y0: 0, y1: 1,
                     line: { color: "#c5221f", width: 1.5, dash: "dot" } });
-      notes.push({ xref: "x", yref: "paper", x: m.t, y: 0.02, xanchor: "left", yanchor: "bottom",
-                   text: txt(m.label), showarrow: false, font: { size: 10, color: "#c5221f" } });
+      notes.push({ xref: "x", yref: "paper", x: m.t, y: 0.5, xanchor: "left", yanchor: "middle",
+                   text: txt(m.label), showarrow: false, bgcolor: "rgba(255,255,255,0.75)",
+                   font: { size: 10, color: "#c5221f" } });
     });
     return { shapes: shapes, annotations: notes };
   }
@@ -147,7 +181,7 @@
       traces.push({ type: "scatter", mode: "lines", x: sig.t, y: p.band.lower, line: { width: 0 },
                     showlegend: false, hoverinfo: "skip" });
       traces.push({ type: "scatter", mode: "lines", x: sig.t, y: p.band.upper, line: { width: 0 },
-                    fill: "tonexty", fillcolor: "rgba(31,119,180,0.13)", name: txt(p.band.name), hoverinfo: "skip" });
+                    fill: "tonexty", fillcolor: "rgba(90,90,90,0.14)", name: txt(p.band.name), hoverinfo: "skip" });
     }
     p.traces.forEach(function (tr, k) {
       traces.push({ type: "scatter", mode: "lines", x: sig.t, y: tr.y, name: txt(tr.name),
@@ -168,7 +202,7 @@
     });
     draw(p.id, traces, baseLayout({
       title: { text: txt(p.title), x: 0.02, font: { size: 13 } },
-      xaxis: { title: { text: "t (s)" }, gridcolor: "#eef1f4", zeroline: false },
+      xaxis: { ticksuffix: " s", gridcolor: "#eef1f4", zeroline: false },
       yaxis: { title: { text: p.unit }, gridcolor: "#eef1f4", zeroline: false },
       shapes: deco.shapes, annotations: deco.annotations }));
   }
@@ -180,7 +214,7 @@
                line: { color: PALETTE[k % PALETTE.length], width: 2 } };
     });
     var layout = { title: { text: "Energy per sample", x: 0.02, font: { size: 13 } },
-                   xaxis: { title: { text: "t (s)" }, gridcolor: "#eef1f4" },
+                   xaxis: { ticksuffix: " s", gridcolor: "#eef1f4" },
                    yaxis: { title: { text: "energy" }, gridcolor: "#eef1f4", zeroline: false } };
     if (e.cumulative && e.profiles.length === 1) {
       traces.push({ type: "scatter", mode: "lines", x: e.cumulative.x, y: e.cumulative.y, yaxis: "y2",

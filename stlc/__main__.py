@@ -1,0 +1,5 @@
+import sys
+
+from stlc.cli import main
+
+sys.exit(main())

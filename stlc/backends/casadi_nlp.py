@@ -1,0 +1,277 @@
+"""The CasADi/IPOPT backend: a checked mission → a smooth-robustness trajectory NLP.
+
+``build(program, mission, grid)`` lowers the mission into one NLP (paper A eq. 6) built once:
+
+* decision variables: every vehicle's states at the n samples and inputs on the N intervals
+  (multiple shooting, RK4 by default), then the auxiliary variables of the lifted robustness;
+* constraints: the discrete dynamics ``x_{k+1} = F(x_k, u_k)``, the fixed start state (as
+  variable bounds), state/input bounds (rotor forces, per-axis velocity/acceleration), the
+  lifted robustness constraints, and ``ρ̃ ≥ κ`` (switched on per solve through its lower bound);
+* objective: ``w_E·E + w_F·F − w_ρ·ρ̃ + r·Σ‖u‖²`` with the weights and the smoothing λ as NLP
+  *parameters*, so that a λ schedule and the energy stage re-solve the same NLP with warm
+  starts instead of rebuilding it (a small input regularisation r keeps the optimum unique).
+
+``solve_mission`` runs the schedule (see ``SCHEDULE``) and ``invert`` maps the raw result back
+to a ``Solution`` in mission-level names, re-evaluated by the exact monitor.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from stlc import dynamics, ir, model
+from stlc.backends.smooth_casadi import LoweredRobustness, lower_robustness
+from stlc.timegrid import TimeGrid
+
+INPUT_REG = 1e-4
+IPOPT_DEFAULTS = {
+    "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
+    "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4, "ipopt.acceptable_iter": 10,
+    "ipopt.mu_strategy": "adaptive", "ipopt.linear_solver": "mumps",
+}
+#: IPOPT's return statuses mapped to the shared solver status
+STATUS_MAP = {
+    "Solve_Succeeded": "optimal", "Solved_To_Acceptable_Level": "acceptable",
+    "Maximum_Iterations_Exceeded": "max_iter", "Infeasible_Problem_Detected": "infeasible",
+    "Restoration_Failed": "failed", "Error_In_Step_Computation": "failed",
+    "Maximum_CpuTime_Exceeded": "max_time", "Search_Direction_Becomes_Too_Small": "acceptable",
+    "Invalid_Number_Detected": "failed",
+}
+
+
+@dataclass
+class Layout:
+    """Where each vehicle's states and inputs sit in the decision vector."""
+
+    vehicle: model.Vehicle
+    x_slice: slice  # nx*n entries, column-major (sample by sample)
+    u_slice: slice  # nu*N entries
+    nx: int
+    nu: int
+
+
+@dataclass
+class NlpProblem:
+    solver: ca.Function
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+    kappa_row: int
+    n_vars: int
+    n_cons: int
+    root_fn: ca.Function  # w, p -> smooth robustness (lifted root)
+    energy_fn: ca.Function  # w -> Σ energy terms (objective units)
+    lowered: LoweredRobustness
+    build_s: float
+
+
+@dataclass
+class InverseData:
+    grid: TimeGrid
+    layouts: list[Layout]
+    aux_slice: slice
+    channel_names: list[str]
+    formula: ir.Formula  # the normalised requirement
+
+
+@dataclass
+class Stage:
+    label: str
+    lam: float
+    iterations: int
+    status: str
+    smooth: float
+    exact: float
+    solve_s: float
+    objective: float
+
+
+@dataclass
+class RawResult:
+    w: np.ndarray
+    lam: float
+    stages: list[Stage] = field(default_factory=list)
+    comparisons: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------- building
+
+
+def _channels(layouts: list[Layout], w: ca.SX, n: int) -> dict[str, ca.SX]:
+    out: dict[str, ca.SX] = {}
+    for L in layouts:
+        X = ca.reshape(w[L.x_slice], L.nx, n)
+        U = ca.reshape(w[L.u_slice], L.nu, n - 1)
+        for i, name in enumerate(L.vehicle.channels()):
+            out[name] = X[i, :]
+        Up = ca.horzcat(U, U[:, -1])
+        for i, name in enumerate(L.vehicle.input_channels()):
+            out[name] = Up[i, :]
+    return out
+
+
+def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
+          integrator: str = "rk4") -> tuple[NlpProblem, InverseData]:
+    t0 = time.perf_counter()
+    n, N = grid.n, grid.n_intervals
+    layouts: list[Layout] = []
+    off = 0
+    for name in mission.vehicles:
+        v = program.vehicles[name]
+        nx, nu = dynamics.state_size(v)
+        layouts.append(Layout(v, slice(off, off + nx * n), slice(off + nx * n,
+                                                               off + nx * n + nu * N), nx, nu))
+        off += nx * n + nu * N
+    n_traj = off
+    wt = ca.SX.sym("w", n_traj)
+    lam, w_rob, w_en, w_fwd = (ca.SX.sym(s) for s in ("lam", "w_rob", "w_en", "w_fwd"))
+    p = ca.vertcat(lam, w_rob, w_en, w_fwd)
+
+    formula = ir.normalize(mission.requirement)
+    chans = _channels(layouts, wt, n)
+    lowered = lower_robustness(formula, grid, chans, program.params, lam,
+                               method=mission.smoothing.method)
+    aux = lowered.aux
+    w = ca.vertcat(wt, aux)
+    g_list, lbg, ubg = [], [], []
+    lbx = np.full(w.numel(), -np.inf)
+    ubx = np.full(w.numel(), np.inf)
+    energy = ca.SX(0)
+    fwd = ca.SX(0)
+    reg = ca.SX(0)
+    for L in layouts:
+        v = L.vehicle
+        X = ca.reshape(wt[L.x_slice], L.nx, n)
+        U = ca.reshape(wt[L.u_slice], L.nu, N)
+        F = dynamics.discrete_dynamics(v, grid.dt, integrator).map(N)
+        g_list.append(ca.vec(X[:, 1:] - F(X[:, :-1], U)))
+        lbg.append(np.zeros(L.nx * N))
+        ubg.append(np.zeros(L.nx * N))
+        b = dynamics.bounds(v)
+        lbx[L.x_slice] = np.tile(b.x_lo, n)
+        ubx[L.x_slice] = np.tile(b.x_hi, n)
+        lbx[L.u_slice] = np.tile(b.u_lo, N)
+        ubx[L.u_slice] = np.tile(b.u_hi, N)
+        x0 = dynamics.initial_state(v)
+        start = L.x_slice.start
+        lbx[start:start + L.nx] = x0
+        ubx[start:start + L.nx] = x0
+        reg += ca.sumsqr(U) / N
+        if isinstance(v, model.Multirotor):
+            xs = ca.SX.sym("x", L.nx)
+            e_fn = ca.Function("e", [xs], [dynamics.energy_terms(v, xs, grid.dt)]).map(n)
+            energy += ca.sum2(e_fn(X))
+        elif mission.objective.forward_speed:
+            vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)
+            fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
+    cons, lb_r, ub_r = lowered.constraints()
+    g_list.append(cons)
+    lbg.append(lb_r)
+    ubg.append(ub_r)
+    g_list.append(lowered.root)
+    kappa_row = sum(len(x) for x in lbg)
+    lbg.append(np.array([-np.inf]))
+    ubg.append(np.array([np.inf]))
+    g = ca.vertcat(*g_list)
+    obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg
+    nlp = {"x": w, "p": p, "f": obj, "g": g}
+    opts = dict(IPOPT_DEFAULTS)
+    opts["ipopt.max_iter"] = int(mission.options.get("max_iter", 1000))
+    solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
+    root_fn = ca.Function("root", [w, p], [lowered.root])
+    energy_fn = ca.Function("energy", [w], [energy])
+    prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
+                      w.numel(), g.numel(), root_fn, energy_fn, lowered,
+                      time.perf_counter() - t0)
+    chan_names = [c for L in layouts for c in L.vehicle.channels() + L.vehicle.input_channels()]
+    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), chan_names, formula)
+    return prob, inv
+
+
+# ---------------------------------------------------------------- evaluation helpers
+
+
+def trajectory_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray]:
+    """Numeric channels (states, padded inputs) of a decision vector."""
+    n = inv.grid.n
+    out: dict[str, np.ndarray] = {}
+    for L in inv.layouts:
+        X = np.asarray(w[L.x_slice]).reshape(n, L.nx).T
+        U = np.asarray(w[L.u_slice]).reshape(n - 1, L.nu).T
+        for i, name in enumerate(L.vehicle.channels()):
+            out[name] = X[i].copy()
+        Up = np.hstack([U, U[:, -1:]])
+        for i, name in enumerate(L.vehicle.input_channels()):
+            out[name] = Up[i].copy()
+    return out
+
+
+def state_matrix(w: np.ndarray, L: Layout, n: int) -> np.ndarray:
+    return np.asarray(w[L.x_slice]).reshape(n, L.nx)
+
+
+def exact_robustness(f: ir.Formula, inv: InverseData, w: np.ndarray,
+                     params: dict[str, float]) -> float:
+    from stlc import monitor
+
+    return float(monitor.robustness(f, inv.grid.dt, trajectory_channels(w, inv), params))
+
+
+def fill_aux(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict[str, float],
+             lam: float) -> np.ndarray:
+    """Set the aux variables of ``w`` to the un-lifted smooth values of its trajectory."""
+    w = np.array(w, dtype=float)
+    aux, _ = prob.lowered.init_values(trajectory_channels(w, inv), params, lam)
+    w[inv.aux_slice] = np.asarray(aux).ravel()
+    return w
+
+
+class Progress(ca.Callback):
+    """IPOPT iteration callback printing iteration, objective and smooth robustness."""
+
+    def __init__(self, name: str, nx: int, ng: int, np_: int, root_fn: ca.Function,
+                 label: str, every: int = 10, stream=sys.stderr):
+        ca.Callback.__init__(self)
+        self.nx, self.ng, self.np_ = nx, ng, np_
+        self.root_fn, self.label, self.every, self.stream = root_fn, label, every, stream
+        self.it = 0
+        self.p = np.zeros(np_)
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n == "f":
+            return ca.Sparsity.scalar()
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.ng)
+        if n == "lam_p":
+            return ca.Sparsity.dense(self.np_)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        if self.it % self.every == 0:
+            rho = float(self.root_fn(arg[0], self.p))
+            print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
+                  f"smooth robustness {rho:+.4f}", file=self.stream, flush=True)
+        self.it += 1
+        return [0]

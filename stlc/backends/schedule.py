@@ -1,0 +1,217 @@
+"""Initial guess and solve schedule for the CasADi backend.
+
+**Initial guess from the mission itself.**  A small kinematic problem is solved first: every
+vehicle as a double integrator (position, velocity, acceleration; modest bounds) maximising
+the smooth robustness of the part of the requirement that only reads positions and
+velocities (``ir.restrict``).  It is cheap (≈ 9 variables per sample) and finds a path
+through the regions the requirement visits *and around* the regions it forbids.  Its start
+is the hover at the start position bent slightly sideways: a straight line through a
+forbidden box lies on the box's symmetry plane, where the smooth robustness has no
+sideways gradient, and the optimiser would stay inside (NLP_NOTES §3).  The full state guess
+is then position and velocity from this path, level attitude, zero rates, hover forces.
+
+**The smoothing gap and the λ schedule.**  A smooth min over n operands under-estimates by
+up to ln(n)/λ: with the papers' λ = 10 a satisfiable mission can have no positive smooth
+robustness at all.  The schedule solves at the mission's λ first and, while the exact monitor
+says "violated" or the smooth robustness is below κ, multiplies λ by ``LAM_FACTOR`` and
+re-solves from the previous optimum (the NLP has λ as a parameter, nothing is rebuilt), up to
+``LAM_MAX``.  Then, if the objective has energy terms, one more solve minimises
+``w·E − ρ̃`` subject to ``ρ̃ ≥ κ`` from the robust solution (paper A eq. 6).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import casadi as ca
+import numpy as np
+
+from stlc import dynamics, ir, model
+from stlc.backends.casadi_nlp import (
+    STATUS_MAP, InverseData, NlpProblem, RawResult, Stage, exact_robustness, fill_aux,
+)
+from stlc.backends.smooth_casadi import lower_robustness
+from stlc.timegrid import TimeGrid
+
+LAM_FACTOR = 3.0
+LAM_MAX = 300.0
+GUESS_LAM = 30.0
+GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
+GUESS_ACC = 2.0  # m/s^2
+
+
+def _kinematic_limits(v: model.Vehicle) -> tuple[np.ndarray, np.ndarray]:
+    if isinstance(v, model.PointMass):
+        return np.array(v.vel_max), np.array(v.acc_max)
+    return np.full(3, GUESS_VEL), np.full(3, GUESS_ACC)
+
+
+def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGrid,
+                    formula: ir.Formula) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N)."""
+    n, N, dt = grid.n, grid.n_intervals, grid.dt
+    names = list(mission.vehicles)
+    keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
+    f = ir.restrict(formula, lambda s: s in keep)
+    syms, chans, g, lbx, ubx, x0 = [], {}, [], [], [], []
+    obj = ca.SX(0)
+    for k, name in enumerate(names):
+        v = program.vehicles[name]
+        P, V, A = ca.SX.sym(f"P{k}", 3, n), ca.SX.sym(f"V{k}", 3, n), ca.SX.sym(f"A{k}", 3, N)
+        for i, a in enumerate("xyz"):
+            chans[f"{name}.pos.{a}"] = P[i, :]
+            chans[f"{name}.vel.{a}"] = V[i, :]
+        g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
+        g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
+        vmax, amax = _kinematic_limits(v)
+        start, vel0 = np.array(v.start_pos), np.array(getattr(v, "start_vel", (0, 0, 0)))
+        plo, phi_ = np.tile(start, (n, 1)).T.copy(), np.tile(start, (n, 1)).T.copy()
+        plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
+        vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
+        vlo[:, 0] = vhi[:, 0] = vel0
+        syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
+        lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
+        ubx += [phi_.T.ravel(), vhi.T.ravel(), np.tile(amax, N)]
+        # start: hover at the start, bent sideways (breaks symmetric traps), vehicle-specific
+        s = np.sin(np.pi * np.arange(n) / max(N, 1))
+        P0 = np.tile(start, (n, 1)) + np.outer(s, [0.0, 0.15 * (1 if k % 2 == 0 else -1), 0.05])
+        x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
+        obj += 1e-2 * ca.sumsqr(A) / N
+    out: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    w = ca.vertcat(*syms)
+    wx0 = np.concatenate(x0)
+    if isinstance(f, ir.TrueF):
+        sol_w = wx0
+    else:
+        low = lower_robustness(f, grid, chans, program.params, GUESS_LAM,
+                               method=mission.smoothing.method)
+        cons, lb_r, ub_r = low.constraints()
+        W = ca.vertcat(w, low.aux)
+        G = ca.vertcat(*g, cons)
+        lbg = np.concatenate([np.zeros(sum(x.numel() for x in g)), lb_r])
+        ubg = np.concatenate([np.zeros(sum(x.numel() for x in g)), ub_r])
+        solver = ca.nlpsol("guess", "ipopt", {"x": W, "f": obj - low.root, "g": G},
+                           {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
+                            "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
+                            "ipopt.mu_strategy": "adaptive"})
+        num_ch = {}
+        off = 0
+        for name in names:
+            P0 = wx0[off:off + 3 * n].reshape(n, 3).T
+            V0 = wx0[off + 3 * n: off + 6 * n].reshape(n, 3).T
+            for i, a in enumerate("xyz"):
+                num_ch[f"{name}.pos.{a}"], num_ch[f"{name}.vel.{a}"] = P0[i], V0[i]
+            off += 6 * n + 3 * N
+        aux0, _ = low.init_values(num_ch, program.params, GUESS_LAM)
+        sol = solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]),
+                     lbx=np.concatenate(lbx + [np.full(low.aux.numel(), -np.inf)]),
+                     ubx=np.concatenate(ubx + [np.full(low.aux.numel(), np.inf)]),
+                     lbg=lbg, ubg=ubg)
+        sol_w = np.asarray(sol["x"]).ravel()[: w.numel()]
+    off = 0
+    for name in names:
+        P = sol_w[off:off + 3 * n].reshape(n, 3).T
+        V = sol_w[off + 3 * n: off + 6 * n].reshape(n, 3).T
+        A = sol_w[off + 6 * n: off + 6 * n + 3 * N].reshape(N, 3).T
+        out[name] = (P, V, A)
+        off += 6 * n + 3 * N
+    return out
+
+
+def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
+               kin: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], lam: float
+               ) -> np.ndarray:
+    """Decision vector from the kinematic path: level attitude, hover forces, zero inputs."""
+    n = inv.grid.n
+    w = np.zeros(prob.n_vars)
+    for L in inv.layouts:
+        v = L.vehicle
+        P, V, A = kin[v.name]
+        if isinstance(v, model.Multirotor):
+            X = np.zeros((L.nx, n))
+            X[0:3], X[6:9] = P, V
+            X[12:] = dynamics.hover_forces(v)[:, None]
+            U = np.zeros((L.nu, n - 1))
+        else:
+            X = np.vstack([P, V])
+            U = A
+        w[L.x_slice] = X.T.ravel()
+        w[L.u_slice] = U.T.ravel()
+    return fill_aux(prob, inv, w, program.params, lam)
+
+
+def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
+           progress) -> tuple[np.ndarray, dict, float, float]:
+    lbg = prob.lbg.copy()
+    if kappa is not None:
+        lbg[prob.kappa_row] = kappa
+    if progress is not None:
+        progress.p = np.array(p)
+        progress.it = 0
+    t0 = time.perf_counter()
+    sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
+    dt = time.perf_counter() - t0
+    return np.asarray(sol["x"]).ravel(), prob.solver.stats(), float(sol["f"]), dt
+
+
+def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
+                  inv: InverseData, w0: np.ndarray, progress=None, quiet: bool = True
+                  ) -> RawResult:
+    params = program.params
+    obj = mission.objective
+    kappa = mission.threshold
+    lam = mission.smoothing.lam
+    w = w0
+    stages: list[Stage] = []
+
+    def record(label, lam_, w_, stats, f_, dt_):
+        smooth = float(prob.root_fn(w_, [lam_, 1, 0, 0]))
+        exact = exact_robustness(inv.formula, inv, w_, params)
+        st = Stage(label, lam_, int(stats.get("iter_count", 0)),
+                   STATUS_MAP.get(stats.get("return_status", ""), "failed"), smooth, exact,
+                   dt_, f_)
+        stages.append(st)
+        if not quiet:
+            print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}, "
+                  f"smooth {smooth:+.4f}, exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
+        return st
+
+    best, best_st = w, None
+    while True:
+        if progress is not None:
+            progress.label = f"robustness λ={lam:g}"
+        w, stats, f_, dt_ = _solve(prob, w, [lam, max(obj.robustness_weight, 1.0), 0, 0],
+                                   None, progress)
+        st = record("robustness", lam, w, stats, f_, dt_)
+        if best_st is None or st.exact > best_st.exact:
+            best, best_st = w, st
+        if (st.exact > 0 and st.smooth >= kappa) or lam * LAM_FACTOR > LAM_MAX:
+            break
+        lam *= LAM_FACTOR
+        w = fill_aux(prob, inv, w, params, lam)
+    lam = best_st.lam
+    result = RawResult(best, lam, stages)
+    robust_w = best
+    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact > 0:
+        if progress is not None:
+            progress.label = f"energy λ={lam:g}"
+        k_eff = min(kappa, best_st.smooth) if best_st.smooth > 0 else None
+        w_e, stats, f_, dt_ = _solve(
+            prob, best, [lam, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
+            k_eff, progress)
+        st = record("energy", lam, w_e, stats, f_, dt_)
+        if st.exact > 0 and st.status in ("optimal", "acceptable"):
+            result.w = w_e
+    for name, variant in mission.options.get("compare", []):
+        if variant is None:
+            continue
+        if variant.energy_weight == 0 and variant.forward_weight == 0:
+            result.comparisons[name] = robust_w
+            continue
+        w_c, stats, f_, dt_ = _solve(
+            prob, robust_w, [lam, variant.robustness_weight, variant.energy_weight,
+                             variant.forward_weight], None, progress)
+        record(f"compare {name}", lam, w_c, stats, f_, dt_)
+        result.comparisons[name] = w_c
+    return result

@@ -1,0 +1,145 @@
+"""Command line: ``stlc check | monitor | compile | risk | bench``.
+
+Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
+written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan (report still
+written).  Bad input never shows a Python traceback; an internal error prints one line
+(set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import traceback
+
+from stlc.diagnostics import StlcError, render_all, to_json
+
+EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="stlc", description="STL mission compiler for multirotor "
+                                "drones: check, monitor, compile (plan), assess risk.")
+    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
+
+    c = sub.add_parser("check", help="parse and type-check .stl files")
+    c.add_argument("files", nargs="+", metavar="FILE")
+    c.add_argument("--format", choices=("text", "json"), default="text")
+
+    m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
+    m.add_argument("file", metavar="FILE")
+    m.add_argument("--trace", required=True, metavar="CSV")
+    m.add_argument("--json", action="store_true", help="print one JSON object")
+
+    k = sub.add_parser("compile", help="plan a trajectory for each mission and write a report")
+    k.add_argument("file", metavar="FILE")
+    k.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    k.add_argument("--mission", metavar="NAME", default=None)
+    k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
+
+    r = sub.add_parser("risk", help="risk analysis of an existing plan")
+    r.add_argument("file", metavar="FILE")
+    r.add_argument("--trajectory", required=True, metavar="CSV")
+    r.add_argument("--mission", metavar="NAME", default=None)
+    r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+
+    b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
+    b.add_argument("args", nargs=argparse.REMAINDER)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
+                "risk": cmd_risk, "bench": cmd_bench}[args.cmd](args)
+    except StlcError as e:
+        _print_diags(e, None)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print("stlc: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # noqa: BLE001 - the last line of defence
+        if os.environ.get("STLC_DEBUG"):
+            traceback.print_exc()
+        print(f"stlc: internal error: {type(e).__name__}: {e}\n"
+              "  = help: this is a bug in stlc; rerun with STLC_DEBUG=1 for details",
+              file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def _sources(diags) -> dict[str, str]:
+    out = {}
+    for d in diags:
+        f = d.span.file
+        if f and f not in out:
+            try:
+                with open(f, encoding="utf-8", errors="replace") as fh:
+                    out[f] = fh.read()
+            except OSError:
+                pass
+    return out
+
+
+def _print_diags(e: StlcError, sources: dict[str, str] | None) -> None:
+    srcs = sources if sources is not None else _sources(e.diagnostics)
+    print(render_all(e.diagnostics, srcs), file=sys.stderr)
+    n = len(e.diagnostics)
+    print(f"stlc: {n} error{'s' if n != 1 else ''}", file=sys.stderr)
+
+
+def cmd_check(args) -> int:
+    from stlc.pipeline import check_paths
+
+    diags, sources = check_paths(args.files)
+    if args.format == "json":
+        print(to_json(diags))
+    elif diags:
+        _print_diags(StlcError(diags), sources)
+    else:
+        for f in args.files:
+            print(f"{f}: ok")
+    return EXIT_INPUT if diags else EXIT_OK
+
+
+def cmd_monitor(args) -> int:
+    from stlc.pipeline import load, monitor_trace
+    from stlc.trace import read_trace
+
+    program = load(args.file).program
+    trace = read_trace(args.trace)
+    res = monitor_trace(program, trace)
+    if args.json:
+        print(json.dumps({"specs": res}))
+    else:
+        width = max((len(k) for k in res), default=4)
+        print(f"{'spec':<{width}}  {'robustness':>12}  satisfied")
+        for k, v in res.items():
+            print(f"{k:<{width}}  {v['robustness']:>12.6g}  {'yes' if v['satisfied'] else 'no'}")
+    return EXIT_OK
+
+
+def cmd_compile(args) -> int:
+    from stlc.compile import compile_file
+
+    return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
+                        risk=not args.no_risk)
+
+
+def cmd_risk(args) -> int:
+    from stlc.compile import risk_file
+
+    return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out)
+
+
+def cmd_bench(args) -> int:
+    from stlc import bench
+
+    return bench.main(args.args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,495 @@
+"""Tests of the HTML mission report: the view model, rendering and escaping.
+
+``synthetic_case`` builds a small handover-like program (a hexarotor, a workspace, an
+obstacle, a human yawed by 90° with regions in its frame), a 2 s plan of 21 samples and a
+``Solution`` with two named specs; ``test_report_browser`` reuses it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stlc.diagnostics import Span
+from stlc.ir import Always, And, Bin, Const, Eventually, Pred, Sig
+from stlc.model import Box, Human, Mission, Multirotor, Program, Region, Rotor, Scenario
+from stlc.report import build_view, render_report, script_json, write_report
+from stlc.report.view import num, region_role, rotation
+from stlc.solution import Solution, SpecResult
+
+FILE = "demo.stl"
+SOURCE = """\
+# handover test mission <script>window.__pwned = 1</script>
+vehicle uav1 = multirotor(hexarotor)
+scenario {
+  workspace ws = box[(-3.6, -2.85, 0), (3.6, 2.85, 2.5)]
+  obstacle pillar = box[(1.5, -1.5, 0), (2.0, -1.0, 2.5)]
+  human operator at (1, 2, 0) attitude (0, 0, 90 deg)
+  region vis in operator = box[(0.5, -0.25, 0.8), (1.0, 0.25, 1.2)]
+  region behind in operator = box[(-1.0, -0.5, 0), (-0.2, 0.5, 2.0)]
+  region ho in operator = box[(0.3, -0.15, 0.9), (0.55, 0.15, 1.2)]
+}
+mission demo {
+  horizon = 2 s  step = 0.1 s
+  spec safe = always[0, 2] (uav1.pos.z <= 2.5 and uav1.pos.z >= 0.2)
+  spec reach = eventually[1, 2] (uav1.pos.x >= -0.5)
+  require safe and reach   # </script><img src=x onerror="window.__pwned=2">
+}
+"""
+NASTY = "</script><script>window.__pwned = 3</script>"
+C_F = 11.5e-4
+
+
+def span(line: int, col: int = 3, end: int = 40) -> Span:
+    return Span(FILE, line, col, line, end)
+
+
+def hexarotor() -> Multirotor:
+    rotors = tuple(Rotor((0.2 * math.cos(k * math.pi / 3), 0.2 * math.sin(k * math.pi / 3), 0.0),
+                         (0.0, 0.0, 1.0), 1 if k % 2 == 0 else -1) for k in range(6))
+    return Multirotor("uav1", 2.25, ((0.0207, 0, 0), (0, 0.021, 0), (0, 0, 0.031)), C_F,
+                      2.38e-5, 0.29, 11.5, rotors, (-1.8, 0.0, 1.0), span=span(2))
+
+
+def formulas() -> dict:
+    z_hi = Pred(Bin("-", Const(2.5), Sig("uav1.pos.z")), "uav1.pos.z <= 2.5", span(13, 28, 45))
+    z_lo = Pred(Bin("-", Sig("uav1.pos.z"), Const(0.2)), "uav1.pos.z >= 0.2", span(13, 50, 67))
+    reach = Pred(Bin("-", Sig("uav1.pos.x"), Const(-0.5)), f"uav1.pos.x >= -0.5 {NASTY}",
+                 span(14, 34, 52))
+    return {"safe": Always(0.0, 2.0, And((z_hi, z_lo)), span(13)),
+            "reach": Eventually(1.0, 2.0, reach, span(14))}
+
+
+def program_and_mission() -> tuple[Program, Mission]:
+    specs = formulas()
+    mission = Mission("demo", ("uav1",), 2.0, 0.1, specs, And(tuple(specs.values())),
+                      span=Span(FILE, 11, 1, 16, 2),
+                      spec_spans={"safe": span(13), "reach": span(14)})
+    scenario = Scenario(
+        regions=(
+            Region("ws", "workspace", Box((-3.6, -2.85, 0.0), (3.6, 2.85, 2.5)), span(4)),
+            Region("pillar", "obstacle", Box((1.5, -1.5, 0.0), (2.0, -1.0, 2.5)), span(5)),
+            Region("vis", "region", Box((0.5, -0.25, 0.8), (1.0, 0.25, 1.2), "operator"),
+                   span(7)),
+            Region("behind", "region", Box((-1.0, -0.5, 0.0), (-0.2, 0.5, 2.0), "operator"),
+                   span(8)),
+            Region("ho", "region", Box((0.3, -0.15, 0.9), (0.55, 0.15, 1.2), "operator"),
+                   span(9)),
+        ),
+        humans=(Human("operator", (1.0, 2.0, 0.0), (0.0, 0.0, math.pi / 2), span=span(6)),),
+    )
+    program = Program(FILE, SOURCE, vehicles={"uav1": hexarotor()}, scenario=scenario,
+                      missions={"demo": mission})
+    return program, mission
+
+
+def channels(t: np.ndarray) -> dict[str, np.ndarray]:
+    s = t / t[-1]
+    pos = np.stack([-1.8 + 2.5 * s, 2.0 * s ** 2, 1.0 + 0.1 * np.sin(math.pi * s)])
+    vel = np.gradient(pos, t, axis=1)
+    ch = {f"uav1.pos.{a}": pos[i] for i, a in enumerate("xyz")}
+    ch |= {f"uav1.vel.{a}": vel[i] for i, a in enumerate("xyz")}
+    heading = np.arctan2(vel[1], vel[0]) + 0.2 * np.sin(3 * t)
+    ch |= {"uav1.att.x": 0.02 * np.sin(t), "uav1.att.y": 0.03 * np.cos(t), "uav1.att.z": heading}
+    for i in range(6):
+        force = 3.68 + 0.8 * np.sin(2 * t + i)
+        ch[f"uav1.force.{i + 1}"] = force
+        ch[f"uav1.rotor_speed.{i + 1}"] = np.sqrt(force / C_F)
+    ch["uav1.speed"] = np.linalg.norm(vel, axis=0)
+    ch["uav1.heading"] = heading
+    ch["uav1.course"] = np.arctan2(vel[1], vel[0])
+    return ch
+
+
+def risk_json() -> dict:
+    return {"cases": [
+        {"name": "σ² = 0.25", "K": 15000, "delta": 0.01, "seed": 0,
+         "var": {"0.7": {"value": 0.12, "lower": 0.1, "upper": 0.14},
+                 "0.9": {"value": 0.03, "lower": 0.01, "upper": 0.05}},
+         "cvar": {"0.7": {"value": 0.05, "lower": 0.02, "upper": 0.07},
+                  "0.9": {"value": -0.02, "lower": None, "upper": 0.01}},
+         "p_violation": {"value": 0.081, "upper": 0.088},
+         "specs": {"safe": {"p_violation": 0.0}, "reach": {"p_violation": 0.081}},
+         "driver": "reach",
+         "histogram": {"edges": [-0.2, -0.1, 0.0, 0.1, 0.2, 0.3],
+                       "counts": [300, 915, 6000, 7000, 785]}},
+        {"name": "σ² = 0.75", "K": 15000, "delta": 0.01, "seed": 0, "epsilon": 0.0133,
+         "nominal_robustness": 0.2, "mean": 0.05, "min": -0.4, "max": 0.3,
+         "var": {"0.7": {"value": -0.01, "lower": -0.03, "upper": 0.01}},
+         "cvar": {"0.7": {"value": -0.1, "lower": -0.15, "upper": -0.08}},
+         "p_violation": {"value": 0.31, "upper": 0.32},
+         "specs": {"safe": {"p_violation": 0.01, "p_violation_upper": 0.012,
+                            "driver_fraction": 0.05},
+                   "reach": {"p_violation": 0.3, "p_violation_upper": 0.31,
+                             "driver_fraction": 0.95}},
+         "drivers": {"safe": {"count": 230, "fraction": 0.05},
+                     "reach": {"count": 4420, "fraction": 0.95}}},
+    ]}
+
+
+def synthetic_case(status: str = "satisfied", risk: bool = True
+                   ) -> tuple[Program, Mission, Solution]:
+    """A small program, its mission and a solution with the given status."""
+    program, mission = program_and_mission()
+    t = np.round(np.arange(21) * 0.1, 10)
+    ch = channels(t)
+    violated = status != "satisfied"
+    reach_rho = -0.12 if violated else 0.05
+    specs = {
+        "safe": SpecResult(0.25, 0.21, True, 1.2, "uav1.pos.z <= 2.5", 13),
+        "reach": SpecResult(reach_rho, reach_rho - 0.04, not violated, 1.5,
+                            f"uav1.pos.x >= -0.5 {NASTY}", 14),
+    }
+    power = sum(C_F * ch[f"uav1.rotor_speed.{i + 1}"] ** 6 for i in range(6)) * 1e-9
+    extra: dict = {
+        "bounds": {"speed": [0.0, 2.0], "rotor_speed": [40.0, 80.0], "force": [0.29, 11.5],
+                   "heading_margin_deg": 30.0},
+        "windows": [{"spec": "safe", "start": 0.0, "end": 2.0},
+                    {"spec": "reach", "start": 1.0, "end": 2.0}],
+        "energy_profile": power.tolist(),
+        "comparisons": [{"label": f"w = 0 {NASTY}", "energy": float(power.sum() * 1.3),
+                         "robustness_exact": 0.07, "peak_speed": 2.4,
+                         "peak_rotor_speed": 79.0, "energy_profile": (power * 1.3).tolist()}],
+    }
+    if risk:
+        extra["risk"] = risk_json()
+    sol = Solution(
+        mission="demo", status=status, robustness_exact=min(0.25, reach_rho),
+        robustness_smooth=min(0.21, reach_rho - 0.04), specs=specs, energy=float(power.sum()),
+        times=t, channels=ch,
+        timing={"parse_s": 0.01, "check_s": 0.02, "build_s": 1.5, "solve_s": 3.25,
+                "total_s": 4.8},
+        solver={"name": "ipopt", "iterations": 48,
+                "return_status": "Solve_Succeeded" if status != "solver_failed"
+                else "Maximum_Iterations_Exceeded",
+                "stages": [{"label": "λ = 10", "lam": 10.0, "iterations": 20,
+                            "status": "Solve_Succeeded", "exact": -0.02, "solve_s": 1.25},
+                           {"label": "λ = 50", "lam": 50.0, "iterations": 28,
+                            "status": "Solve_Succeeded", "exact": 0.05, "solve_s": 2.0}]},
+        smoothing={"method": "gkl", "lambda": 10.0, "lambda_final": 50.0,
+                   "schedule": [10.0, 20.0, 50.0]},
+        problem_size={"variables": 4321, "constraints": 3876, "samples": 21},
+        notes=["λ raised from 10 to 50 (schedule)"],
+        extra=extra,
+    )
+    return program, mission, sol
+
+
+@pytest.fixture
+def case():
+    return synthetic_case()
+
+
+@pytest.fixture
+def view(case):
+    return build_view(*case)
+
+
+def data_block(html: str) -> str:
+    m = re.search(r'<script type="application/json" id="report-data">(.*?)</script>', html,
+                  re.S)
+    assert m, "the JSON data block is missing"
+    return m.group(1)
+
+
+# --------------------------------------------------------------------------- view model
+
+
+def test_view_is_plain_json(view):
+    text = json.dumps(view, allow_nan=False)
+    assert json.loads(text) == view
+
+
+def test_summary(view):
+    s = view["summary"]
+    assert s["mission"] == "demo" and s["status"] == "satisfied"
+    assert s["status_label"] == "Satisfied"
+    assert s["robustness_exact"] == 0.05 and s["robustness_smooth"] == 0.01
+    assert s["robustness_exact_text"] == "+0.05"
+    assert s["energy"] is not None and s["energy_text"] != "—"
+    assert [t["name"] for t in s["timing"]] == ["parse", "check", "build", "solve", "total"]
+    assert s["solve_text"] == "3.25 s"
+    assert s["solver_name"] == "ipopt" and s["iterations"] == "48"
+    assert s["return_status"] == "Solve_Succeeded"
+    assert s["smoothing_method"] == "gkl" and s["smoothing_lam_text"] == "50 (declared 10)"
+    assert s["stages"]["columns"] == ["label", "λ", "iterations", "status", "exact ρ",
+                                      "solve (s)"]
+    assert s["stages"]["rows"][1] == ["λ = 50", "50", "28", "Solve_Succeeded", "0.05", "2"]
+    assert all(e["name"] != "stages" for e in s["solver_extra"])
+    assert s["smoothing_schedule"] == "10, 20, 50"
+    assert {"name": "variables", "text": "4321"} in s["problem_size"]
+    assert view["banner"] is None
+
+
+def test_spec_rows(view):
+    rows = {r["name"]: r for r in view["specs"]}
+    assert list(rows) == ["safe", "reach"]
+    safe = rows["safe"]
+    assert safe["robustness"] == 0.25 and safe["satisfied"] and safe["verdict"] == "satisfied"
+    assert safe["tightest_time"] == 1.2 and safe["tightest_text"] == "1.2 s"
+    assert safe["binding_predicate"] == "uav1.pos.z <= 2.5"
+    assert safe["line"] == 13 and safe["anchor"] == "L13"
+    assert safe["predicate_anchor"] == "L13"
+    assert safe["window_text"] == "[0, 2] s"
+    assert rows["reach"]["anchor"] == "L14" and rows["reach"]["window_text"] == "[1, 2] s"
+
+
+def test_spec_line_falls_back_to_spans():
+    program, mission, sol = synthetic_case()
+    sol.specs["safe"] = replace(sol.specs["safe"], line=0)
+    rows = build_view(program, mission, sol)["specs"]
+    assert rows[0]["line"] == 13 and rows[0]["anchor"] == "L13"
+
+
+def test_human_frame_box_corners_rotated_by_yaw():
+    program, mission, sol = synthetic_case()
+    boxes = {b["name"]: b for b in build_view(program, mission, sol)["scene"]["boxes"]}
+    vis = boxes["vis"]
+    assert vis["frame"] == "operator" and len(vis["corners"]) == 8
+    # operator at (1, 2, 0), yaw 90°: local (x, y, z) -> world (1 - y, 2 + x, z)
+    # local corner (1.0, 0.25, 1.2) -> world (0.75, 3.0, 1.2)
+    assert any(np.allclose(c, (0.75, 3.0, 1.2), atol=1e-4) for c in vis["corners"])
+    # local corner (0.5, -0.25, 0.8) -> world (1.25, 2.5, 0.8)
+    assert any(np.allclose(c, (1.25, 2.5, 0.8), atol=1e-4) for c in vis["corners"])
+    # every corner is pos + R·local
+    R, pos = rotation((0, 0, math.pi / 2)), np.array([1.0, 2.0, 0.0])
+    lo, hi = np.array([0.5, -0.25, 0.8]), np.array([1.0, 0.25, 1.2])
+    local = [R.T @ (np.array(c) - pos) for c in vis["corners"]]
+    assert all(np.all(p >= lo - 1e-4) and np.all(p <= hi + 1e-4) for p in local)
+    # a world-frame box is not moved
+    assert any(np.allclose(c, (2.0, -1.0, 2.5)) for c in boxes["pillar"]["corners"])
+
+
+def test_rotation_convention():
+    # R = Rz(yaw) Ry(pitch) Rx(roll): pitch 90° maps body x to world -z
+    assert np.allclose(rotation((0, math.pi / 2, 0)) @ [1, 0, 0], [0, 0, -1])
+    assert np.allclose(rotation((math.pi / 2, 0, 0)) @ [0, 1, 0], [0, 0, 1])
+    r, p, y = 0.3, -0.2, 1.1
+    rz = rotation((0, 0, y))
+    assert np.allclose(rotation((r, p, y)), rz @ rotation((0, p, 0)) @ rotation((r, 0, 0)))
+
+
+def test_region_colours(view):
+    boxes = {b["name"]: b for b in view["scene"]["boxes"]}
+    assert boxes["ws"]["wireframe"] and boxes["ws"]["role"] == "workspace"
+    assert boxes["pillar"]["role"] == "nofly" and boxes["pillar"]["color"] == "#d62728"
+    assert boxes["behind"]["color"] == "#d62728"
+    assert boxes["vis"]["role"] == "visibility" and boxes["vis"]["color"] == "#1f77b4"
+    assert boxes["ho"]["role"] == "approach"
+    assert not boxes["ho"]["wireframe"]
+    assert region_role("pr2", "region") == "approach"
+    assert region_role("handover_zone", "region") == "approach"
+    assert region_role("approach_left", "region") == "approach"
+    assert region_role("nofly_1", "region") == "nofly"
+    assert region_role("t3", "target") == "target"
+    assert region_role("s1", "station") == "station"
+    assert region_role("home", "home") == "home"
+    assert region_role("shore", "target") == "target"  # "ho" only as a word
+    # regions attached to a human: matched without the "human." prefix; the rest approach
+    assert region_role("visitor.behind", "region", "visitor") == "nofly"
+    assert region_role("operator.visibility", "region", "operator") == "visibility"
+    assert region_role("operator.ltb2", "region", "operator") == "approach"
+    assert region_role("corridor", "region") == "region"
+    assert boxes["vis"]["label"] == "vis"
+
+
+def test_trajectory_and_humans(view):
+    trajs = view["scene"]["trajectories"]
+    assert [tr["vehicle"] for tr in trajs] == ["uav1"]
+    tr = trajs[0]
+    assert len(tr["x"]) == len(tr["t"]) == 21
+    assert tr["x"][0] == -1.8 and tr["t"][-1] == 2.0
+    (h,) = view["scene"]["humans"]
+    assert h["name"] == "operator" and h["att_deg"] == [0.0, 0.0, 90.0]
+    assert np.allclose(h["facing"], (1.0, 2.6, 0.0), atol=1e-4)
+
+
+def test_signal_plots_with_bounds(view):
+    sig = view["signals"]
+    plots = {p["id"]: p for p in sig["plots"]}
+    assert {"sig-position", "sig-speed", "sig-rotor", "sig-force", "sig-heading-1"} <= set(plots)
+    assert "sig-distance" not in plots and "sig-payload" not in plots  # single drone, no payload
+    assert len(plots["sig-position"]["traces"]) == 3
+    assert [b["value"] for b in plots["sig-speed"]["bounds"]] == [0.0, 2.0]
+    rotor = plots["sig-rotor"]
+    assert len(rotor["traces"]) == 6
+    labels = {b["label"]: b["value"] for b in rotor["bounds"]}
+    assert labels["Γ_pro min"] == 40.0 and labels["Γ_pro max"] == 80.0
+    assert labels["force max"] == pytest.approx(100.0)  # sqrt(11.5 / 11.5e-4)
+    assert [b["value"] for b in plots["sig-force"]["bounds"]] == [0.29, 11.5]
+    heading = plots["sig-heading-1"]
+    assert heading["unit"] == "deg" and heading["band"]["name"].startswith("±γ = 30")
+    up, lo = np.array(heading["band"]["upper"]), np.array(heading["band"]["lower"])
+    assert np.allclose(up - lo, 60.0, atol=1e-2)
+    assert len(sig["t"]) == 21
+    assert [w["spec"] for w in sig["windows"]] == ["safe", "reach"]
+    assert sig["markers"] == []
+
+
+def test_team_signals_distance_and_payload():
+    program, mission, sol = synthetic_case()
+    ch = dict(sol.channels)
+    for a, off in zip("xyz", (0.0, 4.0, 0.0), strict=True):
+        ch[f"uav2.pos.{a}"] = ch[f"uav1.pos.{a}"] + off
+    ch["uav1.payload"] = np.where(sol.times < 1.0, 2.0, 1.0)
+    sol = replace(sol, channels=ch, extra={**sol.extra, "bounds": {"distance_min": 3.0}})
+    view = build_view(program, replace(mission, vehicles=("uav1", "uav2")), sol)
+    plots = {p["id"]: p for p in view["signals"]["plots"]}
+    dist = plots["sig-distance"]
+    assert dist["traces"][0]["name"] == "uav1–uav2"
+    assert np.allclose(dist["traces"][0]["y"], 4.0)
+    assert dist["bounds"] == [{"value": 3.0, "label": "Γ_dis", "style": "limit"}]
+    assert plots["sig-payload"]["traces"][0]["shape"] == "hv"
+    assert len(view["scene"]["trajectories"]) == 2
+
+
+def test_signals_derived_when_channels_missing():
+    program, mission, sol = synthetic_case()
+    ch = {k: v for k, v in sol.channels.items()
+          if k.split(".")[1] in ("pos", "vel", "att")}
+    view = build_view(program, mission, replace(sol, channels=ch, extra={}))
+    plots = {p["id"]: p for p in view["signals"]["plots"]}
+    assert "sig-speed" in plots and "sig-heading-1" in plots  # from vel and att.z
+    assert "sig-rotor" not in plots and "sig-force" not in plots
+    assert plots["sig-heading-1"]["band"] is None
+    # windows derived from the outermost temporal operator of each spec
+    assert view["signals"]["windows"][1] == {"spec": "reach", "start": 1.0, "end": 2.0,
+                                             "color": "#ff7f0e", "text": "[1, 2] s"}
+
+
+def test_energy_and_comparison(view):
+    e = view["energy"]
+    assert e["has_profile"] and e["has_comparison"]
+    assert [c["label"] for c in e["columns"]] == ["this plan (w = 0)", f"w = 0 {NASTY}"]
+    assert e["columns"][1]["peak_speed_text"] == "2.4 m/s"
+    assert e["columns"][0]["peak_rotor_speed_text"].endswith("Hz")
+    assert len(e["profiles"]) == 2 and len(e["profiles"][0]["y"]) == 21
+    assert e["cumulative"] is not None  # the profile is per sample: its sum is the energy
+
+
+def test_risk_present(view):
+    risk = view["risk"]
+    a, b = risk["cases"]
+    assert a["name"] == "σ² = 0.25" and a["driver"] == "reach"
+    assert [r["beta"] for r in a["rows"]] == ["0.7", "0.9"]
+    assert a["rows"][0]["var_text"] == "+0.12"
+    assert a["rows"][1]["cvar_lower_text"] == "—"
+    assert a["p_violation_text"] == "0.081" and a["p_violation_upper_text"] == "0.088"
+    assert a["specs"][0]["name"] == "reach"
+    assert len(a["histogram"]["centers"]) == 5 and a["histogram"]["centers"][0] == -0.15
+    assert b["driver"] == "reach" and b["histogram"] is None  # stlc.risk format: drivers
+    assert b["specs"][0]["share_text"] == "95 %"
+
+
+def test_risk_absent():
+    program, mission, sol = synthetic_case(risk=False)
+    view = build_view(program, mission, sol)
+    assert view["risk"] is None
+    html = render_report(view)
+    assert 'id="risk"' not in html and 'href="#risk"' not in html
+
+
+def test_non_finite_numbers_are_null():
+    program, mission, sol = synthetic_case()
+    sol.specs["safe"] = replace(sol.specs["safe"], robustness=math.inf, tightest_time=None)
+    sol.channels["uav1.speed"] = sol.channels["uav1.speed"].copy()
+    sol.channels["uav1.speed"][3] = math.nan
+    view = build_view(program, mission, sol)
+    json.dumps(view, allow_nan=False)
+    assert view["specs"][0]["robustness_text"] == "+∞"
+    assert view["specs"][0]["tightest_text"] == "—"
+    render_report(view)
+
+
+def test_empty_solution_still_renders():
+    """A solver that failed before producing a plan: no samples, no channels, no specs."""
+    program, mission, _ = synthetic_case()
+    program = replace(program, scenario=Scenario())
+    sol = Solution("demo", "solver_failed", -math.inf, -math.inf, {}, math.nan,
+                   np.zeros(0), {}, solver={"name": "ipopt",
+                                            "return_status": "Invalid_Number_Detected"})
+    view = build_view(program, mission, sol)
+    json.dumps(view, allow_nan=False)
+    assert view["signals"]["plots"] == [] and view["scene"]["trajectories"] == []
+    assert view["banner"]["title"] == "Solver failed" and view["banner"]["spec"] is None
+    html = render_report(view)
+    assert "Invalid_Number_Detected" in html and "The mission has no named specs." in html
+
+
+def test_num_rounds_to_five_digits():
+    assert num(1.23456789) == 1.2346
+    assert num(123456.7) == 123460.0
+    assert num(math.inf) is None and num(None) is None and num("x") is None
+
+
+# --------------------------------------------------------------------------- rendering
+
+
+def test_render_satisfied(case):
+    html = render_report(build_view(*case))
+    assert html.startswith("<!DOCTYPE html>")
+    for section in ("summary", "requirements", "scene-section", "signals", "energy", "risk",
+                    "source"):
+        assert f'<section id="{section}"' in html
+    assert 'role="alert"' not in html
+    assert '<a href="#L13">' in html and 'id="L13"' in html
+    assert "Plotly" in html  # plotly.js is inlined
+    # self-contained: no external resources
+    assert not re.search(r"<(script|link|img|iframe)[^>]+(src|href)=", html)
+    json.loads(data_block(html).replace("<\\/", "</"))
+
+
+@pytest.mark.parametrize("status", ["violated", "solver_failed"])
+def test_failure_banner_names_the_spec(status):
+    program, mission, sol = synthetic_case(status)
+    view = build_view(program, mission, sol)
+    b = view["banner"]
+    assert b["status"] == status and b["spec"]["name"] == "reach"
+    assert b["spec"]["margin_text"] == "0.12" and b["spec"]["tightest_text"] == "1.5 s"
+    assert view["signals"]["markers"] == [{"spec": "reach", "t": 1.5, "label": "reach fails"}]
+    html = render_report(view)
+    banner = html[html.index('role="alert"'):html.index('<section id="summary"')]
+    assert "reach" in banner and "1.5 s" in banner and "0.12" in banner
+    assert ("Solver failed" if status == "solver_failed" else "Mission violated") in banner
+    if status == "solver_failed":
+        assert "Maximum_Iterations_Exceeded" in banner
+    assert html.index('role="alert"') < html.index('id="summary"')
+    assert 'class="line spec fail"' in html or "fail" in html[html.index('id="L14"') - 40:]
+
+
+def test_mission_text_is_escaped(case):
+    html = render_report(build_view(*case))
+    block = data_block(html)
+    page = html.replace(block, "")
+    assert "<script>window.__pwned" not in page
+    assert "w = 0 &lt;/script&gt;&lt;script&gt;window.__pwned = 3" in html  # table header
+    assert "&lt;script&gt;window.__pwned = 1&lt;/script&gt;" in html
+    assert 'onerror="window' not in html and "&lt;img src=x onerror=" in html
+    assert "</script" not in block and "<\\/script>" in block
+    assert "<script>window.__pwned = 3<\\/script>" in block
+    data = json.loads(block.replace("<\\/", "</"))
+    assert NASTY in json.dumps(data, ensure_ascii=False)
+    # in the data block "<script>" is inert: nothing in it can close the element
+    assert len(re.findall(r"<script\b", page)) == 3  # the page's own three blocks
+
+
+def test_script_json_escapes_comment_openers():
+    text = str(script_json({"a": "<!-- </script> </SCRIPT"}))
+    assert "<!--" not in text and "</" not in text
+    assert json.loads(text.replace("<\\/", "</")) == {"a": "<!-- </script> </SCRIPT"}
+
+
+def test_write_report_is_atomic(tmp_path, case):
+    path = tmp_path / "out" / "report.html"
+    n = write_report(path, *case)
+    assert n == path.stat().st_size and n > 100_000
+    assert os.listdir(path.parent) == ["report.html"]
+    assert path.read_text(encoding="utf-8").endswith("</html>\n")
+    n2 = write_report(path, *case)  # overwriting works too
+    assert n2 == n
