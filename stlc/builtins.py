@@ -114,6 +114,10 @@ def _minmax(fn: str):
         vals = [_numeric(el, a, scope) for a in n.args]
         if any(v is None for v in vals):
             return ERROR
+        for v, a in zip(vals, n.args):
+            if isinstance(v, Num) and v.v.ndim > 1:
+                return el.err("STL205", f"`{fn}` takes numbers and vectors, found a matrix",
+                              a.span)
         items = []
         dims = set()
         for v in vals:
@@ -189,6 +193,9 @@ def _diag(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
             return v
         if not isinstance(v, Num):
             return el.err("STL210", "`diag` takes constant numbers", a.span)
+        if v.v.ndim > 1:
+            return el.err("STL205", "`diag` takes numbers and vectors, found a matrix", a.span,
+                          "list the diagonal entries, e.g. diag(1, 2, 3)")
         vals.extend(np.atleast_1d(v.v).tolist())
         if v.dim is not None:
             dims.add(v.dim)

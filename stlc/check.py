@@ -19,17 +19,25 @@ from stlc.diagnostics import Collector, Span, StlcError, did_you_mean
 from stlc.elaborate import Elaborator, Scope
 from stlc.values import (
     DistV, ErrorV, Form, GroupV, HumanV, Num, RegionV, RotorsV, StrV, Sym, Value, VehicleV,
+    kind_name,
 )
 
 REGION_KINDS = ("obstacle", "region", "target", "station", "home")
 GROUP_NAMES = {"obstacles": "obstacle", "regions": "region", "targets": "target",
                "stations": "station", "homes": "home"}
 TOP_KINDS = ("vehicle", "scenario", "mission", "spec", "const", "signal")
+SINGLE_BLOCKS = ("start", "risk", "replan")  # sub-blocks that a block holds at most once
 
 
 def check(tree: ast.File) -> model.Program:
     """Check a parsed file; raise ``StlcError`` with all diagnostics if anything is wrong."""
-    return Checker(tree).run()
+    ck = Checker(tree)
+    try:
+        return ck.run()
+    except RecursionError:  # the elaborator guards each value; this is the last resort
+        ck.d.error("STL004", "formula nested too deeply", ck.where,
+                   "name sub-formulas with `spec` instead")
+        raise StlcError(ck.d.diagnostics) from None
 
 
 class Checker:
@@ -44,15 +52,21 @@ class Checker:
         self.human_regions: dict[str, dict[str, RegionV]] = {}
         self.params: dict[str, float] = {}
         self.defined: dict[str, Span] = {}
+        #: names whose declaration had errors: bound to ``ErrorV`` so that uses stay silent
+        self.failed: set[str] = set()
+        self.where = tree.members[0].span if tree.members else Span.none()  # for STL004
 
     # ------------------------------------------------------------ driver
     def run(self) -> model.Program:
         members = self.tree.members
+        signals = self._signals(members)
+        for s in signals:  # bound first: a constant that reads a signal is STL210, not STL101
+            self.globals.names[s] = Sym((ir.Sig(s),), None, False, (s,))
         self._consts([m for m in members if isinstance(m, ast.Named) and m.kind == "const"],
                      self.globals)
-        signals = self._signals(members)
         for m in members:
             if isinstance(m, ast.Block) and m.kind == "vehicle":
+                self.where = m.span
                 self._vehicle(m)
         scen = [m for m in members if isinstance(m, ast.Block) and m.kind == "scenario"]
         for extra in scen[1:]:
@@ -62,12 +76,11 @@ class Checker:
             self._scenario(scen[0])
         self.el.human_regions = self.human_regions
         self._bind_world(self.globals)
-        for s in signals:
-            self.globals.names[s] = Sym((ir.Sig(s),), None, False, (s,))
         specs, spans = self._specs([m for m in members if isinstance(m, ast.Named)
                                     and m.kind == "spec"], self.globals, None)
         missions: dict[str, model.Mission] = {}
         for m in members:
+            self.where = m.span
             if isinstance(m, ast.Block) and m.kind == "mission":
                 mis = self._mission(m, specs)
                 if mis is not None:
@@ -107,10 +120,16 @@ class Checker:
             v = self.el.value(m.value, scope)
             if isinstance(v, (Num, ErrorV)):
                 scope.names[m.name] = v
+                continue
+            scope.names[m.name] = ErrorV()  # reported here, silent where it is used
+            if isinstance(v, Sym):
+                self.d.error("STL210", "a constant must not read signals", m.value.span,
+                             "use the expression in a spec directly, or declare the "
+                             "constant from numbers only")
             else:
-                self.d.error("STL210", f"a constant must be a number, found "
-                             f"{'a formula' if isinstance(v, Form) else 'something else'}",
-                             m.value.span, "use `spec` to name a formula")
+                self.d.error("STL210", f"a constant must be a number, found {kind_name(v)}",
+                             m.value.span, "use `spec` to name a formula"
+                             if isinstance(v, Form) else None)
 
     def _signals(self, members) -> list[str]:
         out: list[str] = []
@@ -124,7 +143,9 @@ class Checker:
     def _fields(self, block: ast.Block, allowed: dict[str, bool], sub_blocks=(),
                 named_kinds=()) -> dict[str, ast.Member]:
         """Index a block's members by name; report unknown, duplicate and missing ones.
-        ``allowed`` maps field name → required."""
+        ``allowed`` maps field name → required.  Of the ``sub_blocks``, a ``SINGLE_BLOCKS``
+        kind may appear once; others may repeat (`rotor { }` blocks), but not under one
+        name."""
         out: dict[str, ast.Member] = {}
         for m in block.members:
             if isinstance(m, ast.Field):
@@ -135,7 +156,16 @@ class Checker:
                                  "fields: " + ", ".join(allowed))
                     continue
             elif isinstance(m, ast.Block) and m.kind in sub_blocks:
-                key, span = m.kind + (":" + m.name if m.name else ""), m.span
+                if m.kind in SINGLE_BLOCKS:
+                    key, span = m.kind, m.span
+                    if key in out:
+                        self.d.error("STL102", f"`{key}` is given twice: a `{block.kind}` has "
+                                     f"one `{key}` block", span, f"merge the `{key}` blocks")
+                        continue
+                elif m.name:
+                    key, span = m.kind + ":" + m.name, m.name_span
+                else:
+                    continue
             elif isinstance(m, ast.Named) and m.kind in named_kinds:
                 continue
             else:
@@ -156,6 +186,7 @@ class Checker:
         name = b.name or "?"
         if not self._define(name, b.name_span, "vehicle"):
             return
+        self.failed.add(name)  # until it checks
         if b.model == "multirotor":
             v = self._multirotor(b)
         elif b.model in ("point_mass", "motion_primitive"):
@@ -167,12 +198,16 @@ class Checker:
             return
         if v is not None:
             self.vehicles[name] = v
+            self.failed.discard(name)
 
     def _num(self, f: dict, key: str, dim, default=None, positive=False):
         m = f.get(key)
         if m is None:
             return default
         x = self.el.number(m.value, self.globals, dim, f"`{key}`")
+        if x is not None and not math.isfinite(x):
+            self.d.error("STL207", f"`{key}` must be a finite number, found {x:g}", m.value.span)
+            return None
         if x is not None and positive and not x > 0:
             self.d.error("STL207", f"`{key}` must be positive", m.value.span)
             return None
@@ -183,6 +218,9 @@ class Checker:
         if m is None:
             return default
         arr = self.el.vector(m.value, self.globals, n, dim, f"`{key}`")
+        if arr is not None and not np.all(np.isfinite(arr)):
+            self.d.error("STL207", f"`{key}` must be finite numbers", m.value.span)
+            return None
         return None if arr is None else tuple(float(x) for x in arr)
 
     def _start(self, b: ast.Block, keys: dict[str, units.Dim]) -> dict[str, tuple]:
@@ -255,7 +293,10 @@ class Checker:
         try:
             dynamics.hover_forces(v, check_bounds=True)
         except Exception as e:  # noqa: BLE001 - any failure here is a modelling error
-            self.d.error("STL402", f"vehicle `{v.name}` cannot hover: {e}", b.name_span,
+            why = str(e).removeprefix(f"{v.name} ")
+            if not why.startswith("cannot hover"):
+                why = f"cannot hover: {why}"
+            self.d.error("STL402", f"vehicle `{v.name}` {why}", b.name_span,
                          "check mass, rotor geometry and the force range")
 
     def _rotors(self, b: ast.Block, f: dict) -> tuple[model.Rotor, ...] | None:
@@ -310,7 +351,7 @@ class Checker:
             if vec is not None and min(vec) <= 0:
                 self.d.error("STL207", f"`{key}` must be positive", f[key].value.span)
                 return None
-        if cap is not None and (cap < 0 or cap != int(cap)):
+        if cap is not None and (cap < 0 or cap != round(cap)):
             self.d.error("STL207", "`capacity` must be a whole number >= 0",
                          f["capacity"].value.span)
             cap = None
@@ -326,9 +367,11 @@ class Checker:
                 scope: Scope) -> RegionV | None:
         v = self.el.value(node, scope)
         if isinstance(v, ErrorV):
+            self.failed.add(name)
             return None
         if not isinstance(v, RegionV):
             self.d.error("STL208", f"`{name}` must be a region, e.g. box(lo, hi) m", node.span)
+            self.failed.add(name)
             return None
         reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame))
         self.regions.append(model.Region(name, kind, reg.box, span))
@@ -370,6 +413,7 @@ class Checker:
         pos = self._vec(f, "pos", 3, units.LENGTH)
         att = self._vec(f, "att", 3, units.ANGLE, (0.0, 0.0, 0.0))
         if pos is None or att is None:
+            self.failed.add(name)
             return
         self.humans[name] = model.Human(name, pos, att, (), b.span)  # type: ignore[arg-type]
         for k, a in enumerate("xyz"):
@@ -384,8 +428,7 @@ class Checker:
                     continue
                 r = self._region("region", f"{name}.{m.name}", m.value, m.span, name,
                                  self.globals)
-                if r is not None:
-                    regs[m.name] = r
+                regs[m.name] = ErrorV() if r is None else r  # type: ignore[assignment]
             elif isinstance(m, ast.Uncertain):
                 self._uncertain(m, name)
             elif isinstance(m, ast.Named):
@@ -443,28 +486,45 @@ class Checker:
                                                     if r.kind == kind))
         scope.names["vehicles"] = GroupV("vehicle", tuple(VehicleV(v) for v in
                                                           self.vehicles.values()))
+        for name in self.failed:
+            scope.names.setdefault(name, ErrorV())
 
     # ------------------------------------------------------------ specs
     def _specs(self, members: list[ast.Named], scope: Scope, step: float | None
                ) -> tuple[dict[str, ir.Formula], dict[str, Span]]:
+        """Elaborate named specs in order; a spec may use only the specs before it."""
         specs: dict[str, ir.Formula] = {}
         spans: dict[str, Span] = {}
-        later = {m.name: m for m in members}
+        seen: dict[str, Span] = {}  # every spec name so far, checked or not
+        pending: dict[str, ast.Named] = {}  # specs not elaborated yet (for STL106)
+        for m in reversed(members):
+            pending[m.name] = m
+        current: list[str] = []
         self.el.time.step = step
 
-        def hook(name: str) -> Value | None:
-            if name in later:
-                self.d.error("STL106", f"spec `{name}` is used before it is defined",
-                             later[name].name_span, "define named specs before using them")
+        def hook(name: str, span: Span) -> Value | None:
+            if current and name == current[0]:
+                self.d.error("STL106", f"spec `{name}` refers to itself", span,
+                             "a formula cannot be recursive; use `always` or `eventually` to "
+                             "repeat it over time")
+                return ErrorV()
+            if name in pending:
+                self.d.error("STL106", f"spec `{name}` is used before it is defined", span,
+                             f"move the definition of `{name}` (line "
+                             f"{pending[name].name_span.line}) above this spec")
                 return ErrorV()
             return None
 
         scope.lookup_hook = hook
         for m in members:
-            later.pop(m.name, None)
-            if not self._define_local(m, specs, scope):
+            if pending.get(m.name) is m:
+                del pending[m.name]
+            if not self._define_local(m, seen, scope):
                 continue
+            seen[m.name] = m.name_span
+            current[:] = [m.name]
             f = self.el.formula(m.value, scope)
+            current.clear()
             if f is not None:
                 specs[m.name] = f
                 spans[m.name] = m.span
@@ -474,11 +534,13 @@ class Checker:
         scope.lookup_hook = None
         return specs, spans
 
-    def _define_local(self, m: ast.Named, specs: dict, scope: Scope) -> bool:
-        if m.name in specs or (scope.get(m.name) is not None and m.name in self.defined):
-            prev = self.defined.get(m.name)
+    def _define_local(self, m: ast.Named, seen: dict[str, Span], scope: Scope) -> bool:
+        prev = seen.get(m.name)
+        if prev is None and scope.get(m.name) is not None:
+            prev = self.defined.get(m.name)  # a vehicle, signal, constant, ...
+        if prev is not None:
             self.d.error("STL102", f"`{m.name}` is already defined"
-                         + (f" (line {prev.line})" if prev and prev.known else ""),
+                         + (f" (line {prev.line})" if prev.known else ""),
                          m.name_span, "rename this spec")
             return False
         return True

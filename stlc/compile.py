@@ -52,7 +52,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     grid = TimeGrid.from_horizon(mission.horizon, mission.step)
     integrator = str(mission.options.get("integrator", "rk4"))
     try:
-        prob, inv = casadi_nlp.build(program, mission, grid, integrator)
+        prob, inv = casadi_nlp.build(program, mission, grid, integrator, quiet=quiet)
     except LoweringError as e:
         raise StlcError([Diagnostic("STL401", f"cannot plan mission `{mission.name}`: {e}",
                                     mission.span)]) from None
@@ -65,7 +65,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     guess_s = time.perf_counter() - t0
     if not quiet:
         print(f"  initial guess: {guess_s:.2f} s", file=sys.stderr)
-    raw = schedule.solve_mission(program, mission, prob, inv, w0, None, quiet)
+    raw = schedule.solve_mission(program, mission, prob, inv, w0, quiet)
     sol = invert(program, mission, raw, inv, prob)
     sol.timing.update({"build_s": prob.build_s, "guess_s": guess_s,
                        "solve_s": sum(s.solve_s for s in raw.stages)})

@@ -1,15 +1,15 @@
-"""Elaboration of expressions and formulas: AST nodes → checked values and IR.
+"""Elaboration of expressions: AST nodes → checked values and IR.
 
 ``Elaborator.value(node, scope)`` evaluates constants (with units converted to SI), turns
-references to vehicle fields and human poses into scalar IR expressions, expands vector
-comparisons, region membership, ranges and quantifiers, and inlines named specs.  Every
-mistake becomes a diagnostic in the shared ``Collector`` and an ``ErrorV`` value, so one
-pass reports all independent errors.
+references to vehicle fields and human poses into scalar IR expressions and inlines named
+specs; the formula nodes (comparisons, region membership, ranges, temporal operators and
+quantifiers) are elaborated by the ``stlc.formulas`` mixin.  Every mistake becomes a
+diagnostic in the shared ``Collector`` and an ``ErrorV`` value, so one pass reports all
+independent errors.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -18,13 +18,14 @@ import numpy as np
 
 from stlc import ast, ir, model, units
 from stlc.diagnostics import Collector, Span, did_you_mean
-from stlc.timegrid import is_aligned
+from stlc.formulas import FormulaElaborator, _broadcast
 from stlc.values import (
     ERROR, DistV, ErrorV, Form, GroupV, HumanV, Num, RegionV, RotorsV, StrV, Sym, Value,
     VehicleV, add, call, const, div, kind_name, mul, neg, sub, to_sym,
 )
 
-BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None), "g0": (9.81, units.ACCEL)}
+BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None),
+                  "g0": (9.81, units.ACCEL)}
 FUNCTIONS = ("abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2", "angdiff",
              "dot", "dist", "box", "diag", "normal", "hexarotor", "quadrotor")
 AXIS_NAMES = {"x": 0, "y": 1, "z": 2, "roll": 0, "pitch": 1, "yaw": 2}
@@ -37,7 +38,7 @@ class Scope:
     names: dict[str, Value] = field(default_factory=dict)
     parent: Scope | None = None
     #: names whose value is computed on first use (named specs, to report use-before-def)
-    lookup_hook: Callable[[str], Value | None] | None = None
+    lookup_hook: Callable[[str, Span], Value | None] | None = None
 
     def get(self, name: str) -> Value | None:
         s: Scope | None = self
@@ -55,6 +56,15 @@ class Scope:
             s = s.parent
         return out
 
+    def hook(self, name: str, span: Span) -> Value | None:
+        """Ask the innermost ``lookup_hook`` about a name that is not bound."""
+        s: Scope | None = self
+        while s is not None:
+            if s.lookup_hook is not None:
+                return s.lookup_hook(name, span)
+            s = s.parent
+        return None
+
     def child(self, names: dict[str, Value]) -> Scope:
         return Scope(dict(names), self)
 
@@ -64,12 +74,13 @@ class TimeCtx:
     step: float | None = None  # mission step (alignment checks) or None
 
 
-class Elaborator:
+class Elaborator(FormulaElaborator):
     def __init__(self, diags: Collector, source: str, file: str):
         self.d = diags
         self.lines = source.splitlines()
         self.file = file
         self.time = TimeCtx()
+        self._inside = False  # inside a call of ``value`` (see there)
 
     # ------------------------------------------------------------ helpers
     def text(self, span: Span) -> str:
@@ -131,7 +142,17 @@ class Elaborator:
     # ------------------------------------------------------------ generic evaluation
     def value(self, node: ast.Node, scope: Scope) -> Value:
         method = getattr(self, "_v_" + type(node).__name__.lower())
-        return method(node, scope)
+        if self._inside:
+            return method(node, scope)
+        # the outermost call: a formula nested deeper than Python's stack is a diagnostic
+        self._inside = True
+        try:
+            return method(node, scope)
+        except RecursionError:
+            return self.err("STL004", "formula nested too deeply", node.span,
+                            "name sub-formulas with `spec` instead")
+        finally:
+            self._inside = False
 
     def _v_number(self, n: ast.Number, scope: Scope) -> Value:
         return Num(np.array(n.value), None)
@@ -145,6 +166,8 @@ class Elaborator:
     def _v_quantity(self, n: ast.Quantity, scope: Scope) -> Value:
         try:
             scale, dim = units.parse_unit(n.unit)
+        except units.UnitRangeError as e:
+            return self.err("STL207", str(e), n.span, "write the quantity in a larger unit")
         except units.UnitError as e:
             bad = str(e)
             return self.err("STL203", f"unknown unit `{bad}`", n.span,
@@ -158,8 +181,10 @@ class Elaborator:
                                     f"has a unit ({units.describe(v.dim)})", n.span)
                 return Num(v.v * scale, dim)
             case RegionV(name, box):
-                if box.frame is None and box.lo and True:
-                    pass
+                if dim != units.LENGTH:
+                    return self.err("STL204", f"unit mismatch: a region is measured in "
+                                    f"lengths, found {units.describe(dim)}", n.span,
+                                    "write its corners in m, e.g. box(lo, hi) m")
                 return RegionV(name, model.Box(tuple(x * scale for x in box.lo),  # type: ignore
                                                tuple(x * scale for x in box.hi), box.frame))
             case DistV(mean, cov, _):
@@ -211,8 +236,8 @@ class Elaborator:
     def _v_path(self, n: ast.Path, scope: Scope) -> Value:
         head = n.parts[0]
         v = scope.get(head)
-        if v is None and scope.lookup_hook is not None:
-            v = scope.lookup_hook(head)
+        if v is None:
+            v = scope.hook(head, _head_span(n))
         if v is None and head in BUILTIN_CONSTS:
             x, dim = BUILTIN_CONSTS[head]
             v = Num(np.array(x), dim)
@@ -221,9 +246,9 @@ class Elaborator:
             return self.err("STL101", f"unknown name `{head}`", _head_span(n),
                             did_you_mean(head, cands))
         for i, part in enumerate(n.parts[1:], start=1):
-            v = self.member(v, part, n, i)
-            if isinstance(v, ErrorV):
+            if isinstance(v, ErrorV):  # a declaration with errors, already reported
                 return v
+            v = self.member(v, part, n, i)
         return v
 
     def member(self, v: Value, part: str, n: ast.Path, i: int) -> Value:
@@ -300,8 +325,9 @@ class Elaborator:
                 return self.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
         if n.op in "+-":
             if not units.compatible(a.dim, b.dim):  # type: ignore[union-attr]
-                return self.err("STL204", f"unit mismatch: cannot {'add' if n.op == '+' else 'subtract'} "
-                                f"{units.describe(b.dim)} and {units.describe(a.dim)}",  # type: ignore
+                verb = "add" if n.op == "+" else "subtract"
+                return self.err("STL204", f"unit mismatch: cannot {verb} "
+                                f"{units.describe(a.dim)} and {units.describe(b.dim)}",  # type: ignore
                                 n.span)
             dim = units.join(a.dim, b.dim)  # type: ignore[union-attr]
         elif n.op == "*":
@@ -311,10 +337,16 @@ class Elaborator:
         else:  # ^
             if not (isinstance(b, Num) and b.is_scalar):
                 return self.err("STL210", "an exponent must be a constant number", n.right.span)
+            k = float(b.v)
+            if not math.isfinite(k) and a.dim not in (None, units.DIMLESS):  # type: ignore
+                return self.err("STL207", f"the exponent of {units.describe(a.dim)} must be a "  # type: ignore
+                                f"finite number, found {k:g}", n.right.span)
             try:
-                dim = units.power(a.dim, float(b.v))  # type: ignore[union-attr]
-            except units.UnitError:
-                return self.err("STL204", "fractional power of a unit", n.span)
+                dim = units.power(a.dim, k)  # type: ignore[union-attr]
+            except units.UnitError as e:
+                code = "STL207" if isinstance(e, units.UnitRangeError) else "STL204"
+                return self.err(code, f"{e} ({units.describe(a.dim)} to the power "  # type: ignore
+                                f"{k:g})", n.span)
         if isinstance(a, Num) and isinstance(b, Num):
             try:
                 with np.errstate(all="ignore"):
@@ -345,228 +377,6 @@ class Elaborator:
                             did_you_mean(n.fn, builtins.FUNCS) or
                             "functions: " + ", ".join(sorted(builtins.FUNCS)))
         return fn(self, n, scope)
-
-    # ------------------------------------------------------------ formulas
-    def formula(self, node: ast.Node, scope: Scope) -> ir.Formula | None:
-        v = self.value(node, scope)
-        if isinstance(v, Form):
-            return v.f
-        if isinstance(v, ErrorV):
-            return None
-        if isinstance(v, (Num, Sym)):
-            self.err("STL201", "expected a formula, found a number", node.span,
-                     "compare it with something, e.g. `... >= 0`")
-        else:
-            self.err("STL201", f"expected a formula, found {kind_name(v)}", node.span)
-        return None
-
-    def _v_not(self, n: ast.Not, scope: Scope) -> Value:
-        f = self.formula(n.arg, scope)
-        return ERROR if f is None else Form(ir.Not(f, n.span))
-
-    def _v_logic(self, n: ast.Logic, scope: Scope) -> Value:
-        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
-        if a is None or b is None:
-            return ERROR
-        if n.op == "implies":
-            return Form(ir.Implies(a, b, n.span))
-        cls = ir.And if n.op == "and" else ir.Or
-        return Form(cls((a, b), n.span))
-
-    def interval(self, iv: ast.Interval | None, scope: Scope) -> tuple[float, float] | None:
-        if iv is None:
-            return 0.0, math.inf
-        lo = self.number(iv.lo, scope, units.TIME, "a time bound")
-        hi = self.number(iv.hi, scope, units.TIME, "a time bound")
-        if lo is None or hi is None:
-            return None
-        ok = True
-        for t, node in ((lo, iv.lo), (hi, iv.hi)):
-            if t < 0:
-                self.err("STL301", f"negative time bound {t:g} s", node.span,
-                         "time bounds are relative to now and must be >= 0")
-                ok = False
-            elif math.isnan(t):
-                ok = False
-        if ok and lo > hi:
-            self.err("STL302", f"interval bounds out of order: [{lo:g}, {hi:g}]", iv.span,
-                     f"did you mean [{hi:g}, {lo:g}]?")
-            ok = False
-        step = self.time.step
-        if ok and step:
-            for t, node in ((lo, iv.lo), (hi, iv.hi)):
-                if not is_aligned(t, step):
-                    self.err("STL303", f"time bound {t:g} s is not a multiple of the mission "
-                             f"step {step:g} s", node.span,
-                             f"use {round(t / step) * step:g} s")
-                    ok = False
-        return (lo, hi) if ok else None
-
-    def _v_temporal(self, n: ast.Temporal, scope: Scope) -> Value:
-        f = self.formula(n.arg, scope)
-        if n.op == "next":
-            return ERROR if f is None else Form(ir.Next(f, n.span))
-        iv = self.interval(n.interval, scope)
-        if f is None or iv is None:
-            return ERROR
-        cls = ir.Always if n.op == "always" else ir.Eventually
-        return Form(cls(iv[0], iv[1], f, n.span))
-
-    def _v_until(self, n: ast.Until, scope: Scope) -> Value:
-        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
-        iv = self.interval(n.interval, scope)
-        if a is None or b is None or iv is None:
-            return ERROR
-        return Form(ir.Until(iv[0], iv[1], a, b, n.span))
-
-    def _v_quant(self, n: ast.Quant, scope: Scope) -> Value:
-        dom = self.value(n.domain, scope)
-        if isinstance(dom, ErrorV):
-            return dom
-        if not isinstance(dom, GroupV):
-            return self.err("STL208", f"cannot range over {kind_name(dom)}", n.domain.span,
-                            "range over `team`, `targets`, `stations`, `homes`, `obstacles` "
-                            "or a list like [uav1, uav2]")
-        if len(set(n.names)) != len(n.names):
-            return self.err("STL102", "the same name is bound twice", n.span)
-        combos = list(itertools.combinations(dom.items, len(n.names)))
-        parts = []
-        for combo in combos:
-            f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
-            if f is None:
-                return ERROR
-            parts.append(f)
-        if not parts:
-            return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
-        if len(parts) == 1:
-            return Form(parts[0])
-        return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))
-
-    def _v_compare(self, n: ast.Compare, scope: Scope) -> Value:
-        a, b = self.value(n.left, scope), self.value(n.right, scope)
-        pair = self._numeric_pair(a, b, n)
-        if pair is None:
-            return ERROR
-        sa, sb = pair
-        items = _broadcast(sa, sb)
-        if items is None:
-            return self.err("STL205", f"cannot compare {len(sa.items)} with {len(sb.items)} "
-                            "components", n.span)
-        label = self.text(n.span)
-        preds = []
-        for k, (x, y) in enumerate(items):
-            e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
-            lab = label if len(items) == 1 else f"{label} [{k + 1}]"
-            preds.append(ir.Pred(e, lab, n.span))
-        return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
-
-    def _numeric_pair(self, a: Value, b: Value, n) -> tuple[Sym, Sym] | None:
-        if isinstance(a, ErrorV) or isinstance(b, ErrorV):
-            return None
-        for v, node in ((a, n.left), (b, getattr(n, "right", None) or n)):
-            if isinstance(v, Form):
-                self.err("STL202", "expected a number, found a formula", node.span,
-                         "comparisons take numbers or signals on both sides")
-                return None
-            if not isinstance(v, (Num, Sym)):
-                self.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
-                return None
-        if not units.compatible(a.dim, b.dim):  # type: ignore[union-attr]
-            self.err("STL204", f"unit mismatch: comparing {units.describe(a.dim)} with "  # type: ignore
-                     f"{units.describe(b.dim)}", n.span,  # type: ignore[union-attr]
-                     _unit_hint(b.dim, a.dim))  # type: ignore[union-attr]
-            return None
-        sa = to_sym(a) if isinstance(a, Num) else a
-        sb = to_sym(b) if isinstance(b, Num) else b
-        return sa, sb  # type: ignore[return-value]
-
-    def _v_in(self, n: ast.In, scope: Scope) -> Value:
-        v = self.value(n.arg, scope)
-        if isinstance(v, ErrorV):
-            return v
-        if isinstance(n.region, ast.Range):
-            lo, hi = self.value(n.region.lo, scope), self.value(n.region.hi, scope)
-            p1 = self._numeric_pair(v, lo, _Pair(n.arg, n.region.lo, n.span))
-            p2 = self._numeric_pair(v, hi, _Pair(n.arg, n.region.hi, n.span))
-            if p1 is None or p2 is None:
-                return ERROR
-            i1, i2 = _broadcast(*p1), _broadcast(*p2)
-            if i1 is None or i2 is None:
-                return self.err("STL205", "range and value sizes do not match", n.span)
-            label = self.text(n.span)
-            preds = []
-            for (x, lo_e), (_, hi_e) in zip(i1, i2):
-                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span))
-                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span))
-            f: ir.Formula = ir.And(tuple(preds), n.span)
-        else:
-            reg = self.value(n.region, scope)
-            if isinstance(reg, ErrorV):
-                return reg
-            if not isinstance(reg, RegionV):
-                return self.err("STL208", f"expected a region after `in`, found {kind_name(reg)}",
-                                n.region.span, "regions are boxes: workspace, obstacles, "
-                                "targets, a human's regions, or box(lo, hi)")
-            if isinstance(v, Num):
-                v = to_sym(v)
-            if not isinstance(v, Sym) or len(v.items) != 3:
-                return self.err("STL205", "only a 3-D position can be in a region",
-                                n.arg.span, "e.g. `uav1.pos in workspace`")
-            if not units.compatible(v.dim, units.LENGTH):
-                return self.err("STL204", f"a region holds positions, found {units.describe(v.dim)}",
-                                n.arg.span)
-            f = box_membership(v.items, reg, self.text(n.span), n.span)
-        return Form(ir.Not(f, n.span) if n.negated else f)
-
-    def _v_range(self, n: ast.Range, scope: Scope) -> Value:
-        return self.err("STL208", "a range [lo, hi] may only follow `in`", n.span)
-
-    def _v_interval(self, n: ast.Interval, scope: Scope) -> Value:  # pragma: no cover
-        return self.err("STL208", "unexpected interval", n.span)
-
-
-@dataclass
-class _Pair:
-    left: ast.Node
-    right: ast.Node
-    span: Span
-
-
-# ---------------------------------------------------------------- shared helpers
-
-
-def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:
-    """``p in box`` as six predicates, in the human's frame when the box is attached to one."""
-    box = reg.box
-    if box.frame is not None:
-        p = world_to_frame(p, box.frame)
-    preds = []
-    for k, axis in enumerate("xyz"):
-        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span))
-        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span))
-    return ir.And(tuple(preds), span)
-
-
-def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
-    """R(att)ᵀ (p − pos) with R = Rz(yaw) Ry(pitch) Rx(roll), pose as IR parameters."""
-    d = [sub(p[k], ir.Param(f"{human}.pos.{a}")) for k, a in enumerate("xyz")]
-    r, pi_, y = (ir.Param(f"{human}.att.{a}") for a in "xyz")
-    cr, sr = ir.Call("cos", (r,)), ir.Call("sin", (r,))
-    cp, sp = ir.Call("cos", (pi_,)), ir.Call("sin", (pi_,))
-    cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
-    # rows of R^T = columns of R
-    R = [
-        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)), add(mul(mul(cy, sp), cr), mul(sy, sr))],
-        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)), sub(mul(mul(sy, sp), cr), mul(cy, sr))],
-        [neg(sp), mul(cp, sr), mul(cp, cr)],
-    ]
-    out = []
-    for j in range(3):  # (R^T d)_j = sum_i R[i][j] d_i
-        acc: ir.Expr = const(0.0)
-        for i in range(3):
-            acc = add(acc, mul(R[i][j], d[i]))
-        out.append(acc)
-    return tuple(out)
 
 
 def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
@@ -622,18 +432,8 @@ def human_fields(h: model.Human, regions: dict[str, RegionV]) -> dict[str, Value
 def _component(part: str, size: int) -> int | None:
     if part in AXIS_NAMES and size == 3:
         return AXIS_NAMES[part]
-    if part.isdigit() and 1 <= int(part) <= size:
+    if part.isdigit() and len(part) < 10 and 1 <= int(part) <= size:
         return int(part) - 1
-    return None
-
-
-def _broadcast(a: Sym, b: Sym):
-    if len(a.items) == len(b.items):
-        return list(zip(a.items, b.items))
-    if len(a.items) == 1:
-        return [(a.items[0], y) for y in b.items]
-    if len(b.items) == 1:
-        return [(x, b.items[0]) for x in a.items]
     return None
 
 
@@ -647,11 +447,6 @@ def _common_dim(dims):
 def _example(d: units.Dim | None) -> str:
     u = units.example_unit(d)
     return f"1 {u}" if u else "1"
-
-
-def _unit_hint(want, got) -> str | None:
-    u = units.example_unit(got)
-    return f"write the right-hand side in {u}" if u else None
 
 
 def _head_span(n: ast.Path) -> Span:

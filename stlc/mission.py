@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 from stlc import ast, ir, model, units
 from stlc.diagnostics import Span, did_you_mean
+from stlc.formulas import misaligned_intervals, nearest_hint
 from stlc.timegrid import is_aligned
 from stlc.values import ErrorV, Form, GroupV, Num, StrV, VehicleV
 
@@ -21,6 +22,8 @@ MISSION_FIELDS = {
 }
 MISSION_BLOCKS = ("risk", "replan", "compare")
 MAX_SAMPLES = 20_000
+MAX_COUNT = 10**9  # sample counts, iteration limits
+MAX_SEED = 2**63 - 1
 OBJECTIVE_TERMS = ("robustness", "energy", "forward_cost")
 
 
@@ -46,13 +49,14 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
     horizon = ck._num(f, "horizon", units.TIME, positive=True)
     step = ck._num(f, "step", units.TIME, positive=True)
     if horizon is not None and step is not None:
-        if not is_aligned(horizon, step):
+        if horizon / step > MAX_SAMPLES:  # first: a tiny step overflows the alignment test
+            ck.d.error("STL305", f"{horizon / step:.3g} samples is more than the limit "
+                       f"{MAX_SAMPLES}", f["step"].value.span,
+                       f"use a larger step, at least {horizon / MAX_SAMPLES:.3g} s")
+            horizon = step = None
+        elif not is_aligned(horizon, step):
             ck.d.error("STL305", f"horizon {horizon:g} s is not a multiple of the step "
                        f"{step:g} s", f["horizon"].value.span)
-            horizon = None
-        elif horizon / step > MAX_SAMPLES:
-            ck.d.error("STL305", f"{horizon / step:.0f} samples is more than the limit "
-                       f"{MAX_SAMPLES}", f["step"].value.span, "use a larger step")
             horizon = None
 
     vehicles = _team(ck, b, f)
@@ -74,6 +78,8 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
         el.time.step = step
         requirement = el.formula(reqs[0].value, scope)
         el.time.step = None
+    if step is not None:
+        _check_inlined_steps(ck, b, name, step, [requirement, *specs.values()])
     if requirement is not None and horizon is not None and step is not None:
         reach = ir.horizon(requirement, step)
         if reach > horizon + 1e-9:
@@ -101,9 +107,9 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
             ck.d.error("STL207", "`integrator` is `rk4` or `euler`", v.span)
         options["integrator"] = txt
     if "max_iter" in f:
-        mi = ck._num(f, "max_iter", None, positive=True)
+        mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT)
         if mi is not None:
-            options["max_iter"] = int(mi)
+            options["max_iter"] = mi
     compares = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "compare"]
     options["compare"] = [(c.name or f"variant{i + 1}", _objective(ck, c, scope))
                           for i, c in enumerate(compares)]
@@ -118,6 +124,43 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
         options=options, span=b.span, spec_spans=spans)
 
 
+def _whole(ck: Checker, node: ast.Node, what: str, lo: int, hi: int) -> int | None:
+    """A whole number in [lo, hi] (finite: ``int()`` of inf or nan would crash)."""
+    x = ck.el.number(node, ck.globals, None, f"`{what}`")
+    if x is None:
+        return None
+    if not (math.isfinite(x) and x == round(x) and lo <= x <= hi):
+        ck.d.error("STL207", f"`{what}` must be a whole number from {lo} to {hi:.3g}, "
+                   f"found {x:g}", node.span)
+        return None
+    return int(x)
+
+
+def _check_inlined_steps(ck: Checker, b: ast.Block, name: str, step: float,
+                         formulas: list[ir.Formula | None]) -> None:
+    """Time bounds written in the mission are checked against its step as they are
+    elaborated; a top-level spec used here was elaborated without a step, so its intervals
+    are checked on the IR, once each, where the spec wrote them."""
+    inside = b.span
+    done: set[Span] = set()
+    for f in formulas:
+        if f is None:
+            continue
+        for node, t in misaligned_intervals(f, step):
+            sp = node.span
+            if not sp.known or sp in done or _contains(inside, sp):
+                continue
+            done.add(sp)
+            ck.d.error("STL303", f"time bound {t:g} s is not a multiple of the step {step:g} s "
+                       f"of mission `{name}`, which uses this formula", sp,
+                       nearest_hint(t, step) or f"use multiples of {step:g} s")
+
+
+def _contains(outer: Span, inner: Span) -> bool:
+    return (outer.file == inner.file and (outer.line, outer.col) <= (inner.line, inner.col)
+            and (inner.end_line, inner.end_col) <= (outer.end_line, outer.end_col))
+
+
 def _team(ck: Checker, b: ast.Block, f: dict) -> list[str]:
     keys = [k for k in ("vehicles", "team", "vehicle") if k in f]
     if len(keys) > 1:
@@ -130,6 +173,8 @@ def _team(ck: Checker, b: ast.Block, f: dict) -> list[str]:
     items = node.items if isinstance(node, ast.List) else (node,)
     out = []
     for it in items:
+        if isinstance(it, ast.Path) and len(it.parts) == 1 and it.parts[0] in ck.failed:
+            continue  # its declaration is already reported
         if isinstance(it, ast.Path) and len(it.parts) == 1 and it.parts[0] in ck.vehicles:
             if it.parts[0] in out:
                 ck.d.error("STL102", f"`{it.parts[0]}` is listed twice", it.span)
@@ -223,10 +268,11 @@ def _smoothing(ck: Checker, f: dict, scope) -> model.Smoothing | None:
         if txt not in ("gkl", "lse"):
             ck.d.error("STL207", f"unknown smoothing `{txt}`", node.span,
                        "`gkl` (Gilpin–Kurtz–Lin, sound) or `lse` (log-sum-exp)")
-            return None
-        method = txt
-    lam = ck._num(f, "lambda", None, 10.0, positive=True)
-    return None if lam is None else model.Smoothing(method, lam)
+            method = None
+        else:
+            method = txt
+    lam = ck._num(f, "lambda", None, 10.0, positive=True)  # checked either way
+    return None if lam is None or method is None else model.Smoothing(method, lam)
 
 
 def _in_unit(ck: Checker, node: ast.Node, lo: float, hi: float, what: str) -> float | None:
@@ -241,23 +287,16 @@ def _risk(ck: Checker, b: ast.Block) -> model.RiskConfig | None:
     blocks = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "risk"]
     if not blocks:
         return None
-    for extra in blocks[1:]:
-        ck.d.error("STL102", "a mission has one `risk` block", extra.span)
-    rb = blocks[0]
-    f = ck._fields(rb, {"K": False, "delta": False, "beta": False, "seed": False},
-                   sub_blocks=("case",))
+    rb = blocks[0]  # a second one is reported by check_mission (`_fields`)
+    f = ck._fields(rb, {"K": False, "delta": False, "beta": False, "seed": False})
     K, delta, seed, betas = 15000, 0.01, 0, (0.7, 0.8, 0.9)
     if "K" in f:
-        x = ck.el.number(f["K"].value, ck.globals, None, "K")
-        if x is not None and (x < 1 or x != int(x)):
-            ck.d.error("STL207", f"K must be a whole number >= 1, found {x:g}", f["K"].value.span)
-        elif x is not None:
-            K = int(x)
+        K = _whole(ck, f["K"].value, "K", 1, MAX_COUNT) or K
     if "delta" in f:
         delta = _in_unit(ck, f["delta"].value, 0, 1, "delta") or delta
     if "seed" in f:
-        x = ck.el.number(f["seed"].value, ck.globals, None, "seed")
-        seed = int(x) if x is not None and x == int(x) and x >= 0 else seed
+        x = _whole(ck, f["seed"].value, "seed", 0, MAX_SEED)
+        seed = seed if x is None else x
     if "beta" in f:
         node = f["beta"].value
         items = node.items if isinstance(node, ast.List) else (node,)

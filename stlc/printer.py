@@ -19,7 +19,8 @@ def expr(n: ast.Node) -> str:
         case ast.Number():
             return fmt_number(n)
         case ast.Quantity(arg, unit):
-            return f"{atom(arg)} {unit}"
+            # a list takes a unit as it is (`[[1, 0], [0, 1]] m^2`, in value position only)
+            return f"{expr(arg) if isinstance(arg, ast.List) else atom(arg)} {unit}"
         case ast.Path(parts):
             return ".".join(parts)
         case ast.Call(fn, args, kwargs):
@@ -36,6 +37,9 @@ def expr(n: ast.Node) -> str:
             return f'"{v}"'
         case ast.Unary(op, arg):
             return f"{op}{atom(arg)}"
+        case ast.Binary("^", left, right):
+            # the base of `^` is a postfix expression: `-x ^ 2` would mean `-(x ^ 2)`
+            return f"({atom(left)} ^ {expr(right)})"
         case ast.Binary(op, left, right):
             return f"({expr(left)} {op} {expr(right)})"
         case ast.Compare(op, left, right):
@@ -55,7 +59,8 @@ def expr(n: ast.Node) -> str:
         case ast.Until(interval, left, right):
             return f"({expr(left)} until{_interval(interval)} {expr(right)})"
         case ast.Quant(kind, names, domain, body):
-            return f"({kind} {', '.join(names)} in {atom(domain)}: {expr(body)})"
+            dom = expr(domain) if isinstance(domain, ast.List) else atom(domain)
+            return f"({kind} {', '.join(names)} in {dom}: {expr(body)})"
     raise TypeError(f"cannot print {n!r}")
 
 

@@ -4,7 +4,8 @@ The grammar lives in ``grammar/stl.lark`` (shipped inside the package as
 ``stlc/grammar/stl.lark``).  A small post-lexer makes the language line-oriented without
 making formulas painful: it drops line ends inside brackets, after binary operators and
 before continuation keywords, collapses blank lines, and inserts the line ends that a
-closing ``}`` or the end of the file imply.  Syntax errors become diagnostics
+closing ``}`` or the end of the file imply (not after a trailing ``{`` or operator: that file
+ends too early).  Syntax errors become diagnostics
 (``STL001``–``STL006``); nothing here raises anything but ``StlcError``.
 """
 
@@ -15,7 +16,7 @@ import re
 from importlib import resources
 from pathlib import Path as FsPath
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from stlc import ast
@@ -52,6 +53,8 @@ class _PostLex:
 
     def __init__(self) -> None:
         self.text = ""  # the source being parsed, for looking past a line end
+        self.last: Token | None = None  # the last real token, for errors at the end of file
+        self.open: list[Token] = []  # brackets and braces not closed yet, innermost last
 
     def _continues(self, nl: Token) -> bool:
         """Does the next line start with `and`, `or`, `implies` or `until`?"""
@@ -60,7 +63,7 @@ class _PostLex:
     def process(self, stream):
         depth = 0
         prev: Token | None = None
-        need_nl = False  # a `}` was just emitted
+        self.last, self.open = None, []
 
         def nl_like(tok: Token) -> Token:
             return Token.new_borrow_pos("_NL", "\n", tok)
@@ -71,32 +74,38 @@ class _PostLex:
                     continue
                 if prev.type in CONTINUE_AFTER or self._continues(tok):
                     continue
-                need_nl = False
                 yield tok
                 prev = tok
                 continue
+            self.last = tok
             if tok.type == "RBRACE":
                 if prev is not None and prev.type not in ("_NL", "LBRACE"):
-                    prev = nl_like(tok)
-                    yield prev
-                need_nl = False
+                    yield nl_like(tok)
+                if self.open and self.open[-1].type == "LBRACE":
+                    self.open.pop()
                 yield tok
-                prev = tok
-                need_nl = True
-                continue
-            if need_nl:
-                need_nl = False
+                # A `}` ends its member at once: the contextual lexer reads the next token in
+                # the parser state after this line end, where a name may start a member
+                # (`a { } b { }`).  A real line end that follows is then dropped above.
                 prev = nl_like(tok)
                 yield prev
-            if tok.type in OPEN:
+                continue
+            if tok.type == "LBRACE":
+                self.open.append(tok)
+            elif tok.type in OPEN:
+                self.open.append(tok)
                 depth += 1
                 if depth > MAX_DEPTH:
                     raise _DepthError(tok)
             elif tok.type in CLOSE:
                 depth = max(0, depth - 1)
+                if self.open and self.open[-1].type in OPEN:
+                    self.open.pop()
             yield tok
             prev = tok
-        if prev is not None and prev.type != "_NL":
+        # the end of the file ends the last line, unless that line asks for more (a trailing
+        # `{`, `,` or operator): then the parser reports an unexpected end of file
+        if prev is not None and prev.type != "_NL" and prev.type not in CONTINUE_AFTER:
             yield Token.new_borrow_pos("_NL", "\n", prev)
 
 
@@ -348,9 +357,7 @@ def _syntax_diag(e: UnexpectedInput, file: str, text: str) -> Diagnostic:
     exp = ", ".join(expected[:8]) + (", …" if len(expected) > 8 else "")
     help_ = f"expected {exp}" if exp else None
     if isinstance(e, UnexpectedEOF) or (tok is not None and tok.type == "$END"):
-        end_line = max(1, text.count("\n") + 1)
-        return Diagnostic("STL003", "unexpected end of file", Span(file, end_line, 1, end_line, 2),
-                          help_ or "a block or bracket is not closed")
+        return _eof_diag(file, text, help_)
     if tok is not None and getattr(tok, "line", None):
         line, col = tok.line, tok.column
         width = max(1, len(str(tok))) if tok.type != "_NL" else 1
@@ -365,6 +372,62 @@ def _syntax_diag(e: UnexpectedInput, file: str, text: str) -> Diagnostic:
     else:
         msg = f"unexpected {what}"
     return Diagnostic("STL002", msg, span, help_)
+
+
+def _eof_diag(file: str, text: str, expected: str | None) -> Diagnostic:
+    """The file ends inside a member: point just after its last token (a line that exists),
+    and name the bracket or brace that is still open."""
+    last = _POSTLEX.last
+    if last is not None and last.end_line:
+        line, col = last.end_line, last.end_column
+    else:
+        lines = text.splitlines() or [""]
+        line = max((i for i, s in enumerate(lines, 1) if s.strip()), default=1)
+        col = len(lines[line - 1].rstrip()) + 1
+    help_ = expected
+    if _POSTLEX.open:
+        o = _POSTLEX.open[-1]
+        close = {"LBRACE": "}", "LPAR": ")", "LSQB": "]"}[o.type]
+        help_ = (f"the `{o}` on line {o.line}, column {o.column} is never closed; "
+                 f"add `{close}`")
+    return Diagnostic("STL003", "unexpected end of file", Span(file, line, col, line, col + 1),
+                      help_ or "a block or bracket is not closed")
+
+
+_MEMBERS = {"field", "named", "typed_block", "named_block", "anon_block", "require", "minimize",
+            "maximize", "signals", "uncertain"}
+
+
+def _deepest_member(tree) -> Token | Tree | None:
+    """The innermost member around the most deeply nested node of a parse tree (iteratively:
+    it is called when recursion has already failed)."""
+    best, best_depth = None, -1
+    stack = [(tree, 0, None)]
+    while stack:
+        node, d, member = stack.pop()
+        if not isinstance(node, Tree):
+            continue
+        if node.data in _MEMBERS:
+            member = node
+        if d > best_depth and member is not None:
+            best, best_depth = member, d
+        stack.extend((c, d + 1, member) for c in node.children)
+    return best
+
+
+def _too_deep(file: str, tree) -> Diagnostic:
+    member = _deepest_member(tree) if tree is not None else None
+    meta = getattr(member, "meta", None)
+    if meta is not None and not getattr(meta, "empty", True):
+        span = Span(file, meta.line, meta.column, meta.line,
+                    meta.end_column if meta.end_line == meta.line else meta.column + 1)
+    elif _POSTLEX.last is not None:  # parsing itself gave up: where it was
+        t = _POSTLEX.last
+        span = Span(file, t.line, t.column, t.line, t.column + 1)
+    else:
+        span = Span(file, 1, 1, 1, 2)
+    return Diagnostic("STL004", "formula nested too deeply", span,
+                      "name sub-formulas with `spec` instead")
 
 
 # ---------------------------------------------------------------- entry points
@@ -390,6 +453,7 @@ def parse(text: str, file: str = "<input>") -> ast.File:
                 "STL006", f"line is {len(line)} characters long (limit {MAX_LINE})",
                 Span(file, i, MAX_LINE + 1, i, MAX_LINE + 2),
                 "split the line; newlines are allowed inside brackets and after operators")])
+    tree = None
     try:
         parser = _parser()
         _POSTLEX.text = text
@@ -403,9 +467,7 @@ def parse(text: str, file: str = "<input>") -> ast.File:
     except UnexpectedInput as e:
         raise StlcError([_syntax_diag(e, file, text)]) from None
     except RecursionError:
-        raise StlcError([Diagnostic("STL004", "formula nested too deeply",
-                                    Span(file, 1, 1, 1, 2),
-                                    "name sub-formulas with `spec` instead")]) from None
+        raise StlcError([_too_deep(file, tree)]) from None
     return ast.File(members, file, text)
 
 

@@ -46,8 +46,15 @@ _NAMES: dict[Dim, str] = {
 _FACTOR = re.compile(r"([A-Za-z°µ]+)(?:\^(-?\d+))?")
 
 
+MAX_EXPONENT = 12  # beyond this a unit power is a typo (and its scale may overflow)
+
+
 class UnitError(ValueError):
     pass
+
+
+class UnitRangeError(UnitError):
+    """A unit that exists but with an exponent out of range (``km^400``)."""
 
 
 def parse_unit(text: str) -> tuple[float, Dim]:
@@ -59,9 +66,13 @@ def parse_unit(text: str) -> tuple[float, Dim]:
         m = _FACTOR.match(text, pos)
         if not m:
             raise UnitError(text[pos:])
-        name, exp = m.group(1), int(m.group(2) or 1)
+        name, digits = m.group(1), m.group(2) or "1"
         if name not in UNITS:
             raise UnitError(name)
+        exp = int(digits) if len(digits.lstrip("-")) <= 3 else MAX_EXPONENT + 1
+        if abs(exp) > MAX_EXPONENT:
+            raise UnitRangeError(f"unit exponent out of range in `{text}` "
+                                 f"(at most {MAX_EXPONENT})")
         s, d = UNITS[name]
         scale *= s ** (sign * exp)
         for i in range(4):
@@ -107,11 +118,19 @@ def div(a: Dim | None, b: Dim | None) -> Dim | None:
 
 
 def power(a: Dim | None, k: float) -> Dim | None:
+    """The dimension of ``a ^ k``; ``UnitError`` unless every exponent stays a whole number
+    (a non-finite ``k`` is an error for a quantity with a unit, never a crash)."""
     if a is None:
         return None
-    if any(x * k != int(x * k) for x in a):
+    if a == DIMLESS:
+        return DIMLESS
+    if not math.isfinite(k):
+        raise UnitError("a unit raised to a non-finite power")
+    if any(abs(x * k) > 100 * MAX_EXPONENT for x in a):
+        raise UnitRangeError("unit exponent out of range")
+    if any(x * k != round(x * k) for x in a):
         raise UnitError("fractional power of a unit")
-    return tuple(int(x * k) for x in a)  # type: ignore[return-value]
+    return tuple(int(round(x * k)) for x in a)  # type: ignore[return-value]
 
 
 def compatible(a: Dim | None, b: Dim | None) -> bool:

@@ -9,13 +9,16 @@ from __future__ import annotations
 
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from stlc import ir, model
 from stlc.check import check
-from stlc.syntax import parse
+from stlc.syntax import parse, parse_file
+
+SPECS = sorted((Path(__file__).resolve().parent.parent / "specs").glob("*.stl"))
 
 
 def program(src: str) -> model.Program:
@@ -159,12 +162,33 @@ def test_rotor_blocks_and_a_matrix_inertia():
     assert v.rotors[2].position == pytest.approx((-0.2, 0.0, 0.0))
 
 
-@pytest.mark.xfail(strict=True, reason="check.py _multirotor: `_fields(..., sub_blocks=('start', "
-                   "'rotor'))` keys unnamed blocks by kind, so a second `rotor { }` block is "
-                   "STL102 'given twice' (the STL210 hint suggests `rotor { }` blocks)")
 def test_unnamed_rotor_blocks():
     src = re.sub(r"rotor r\d ", "rotor ", QUAD)
     assert len(program(src).vehicles["quad"].rotors) == 4
+
+
+def test_two_start_blocks_are_a_duplicate_but_named_rotors_must_differ():
+    from stlc.diagnostics import StlcError
+
+    src = QUAD.replace("  start {", "  start { pos = (0, 0, 1) m }\n  start {", 1)
+    with pytest.raises(StlcError) as e:
+        program(src)
+    assert [(d.code, "start" in d.message) for d in e.value.diagnostics] == [("STL102", True)]
+    src = re.sub(r"rotor r\d ", "rotor r1 ", QUAD)
+    with pytest.raises(StlcError) as e:
+        program(src)
+    assert {d.code for d in e.value.diagnostics} == {"STL102"}
+    assert all("`r1`" in d.message for d in e.value.diagnostics)
+
+
+def test_matrix_with_a_unit():
+    v = program(QUAD.replace("inertia = ", "inertia = [[0.01, 0, 0], [0, 0.01, 0], "
+                             "[0, 0, 0.02]] kg*m^2\n  # ")).vehicles["quad"]
+    assert np.allclose(v.inertia, np.diag([0.01, 0.01, 0.02]))
+    scen = ("scenario {\n  human op {\n    pos = (0, 0, 0) m\n"
+            "    pos ~ normal((0, 0, 0) cm, [[4, 0, 0], [0, 4, 0], [0, 0, 1]] cm^2)\n  }\n}\n")
+    [dist] = program(scen).scenario.humans[0].uncertain
+    assert np.allclose(dist.cov, np.diag([4e-4, 4e-4, 1e-4]))
 
 
 def test_point_mass_vehicle():
@@ -301,12 +325,16 @@ def test_forall_over_a_single_vehicle_is_the_body():
     assert ir.signals(m.requirement) == {"uav2.pos.z"}
 
 
-@pytest.mark.xfail(strict=True, reason="grammar/stl.lark: the domain of forall/exists is a "
-                   "`postfix`, so `forall d in [uav1, uav3]: ...` is STL002 (unexpected `[`), "
-                   "although the STL208 hint suggests 'a list like [uav1, uav2]'")
 def test_forall_over_an_explicit_list():
     m = mission("  require forall d in [uav1, uav3]: d.pos.z > 0")
     assert [ir.signals(g) for g in m.requirement.args] == [{"uav1.pos.z"}, {"uav3.pos.z"}]
+
+
+def test_forall_over_a_list_of_regions():
+    scen = ("scenario {\n  target a = box((0, 0, 0), (1, 1, 1)) m\n"
+            "  target b = box((2, 0, 0), (3, 1, 1)) m\n}\n")
+    m = mission("  require eventually exists q in [a, b]: uav1.pos in q", scenario=scen)
+    assert isinstance(m.requirement, ir.Eventually) and len(m.requirement.arg.args) == 2
 
 
 def test_exists_over_targets_is_a_disjunction():
@@ -378,6 +406,22 @@ def test_temporal_and_boolean_operators():
 def test_true_and_false():
     p = program("spec a = true\nspec b = false\n")
     assert isinstance(p.specs["a"], ir.TrueF) and isinstance(p.specs["b"], ir.FalseF)
+
+
+def test_top_level_specs_are_checked_against_the_mission_step():
+    from stlc.diagnostics import StlcError
+
+    src = (TEAM3 + "spec a = always[0, 0.75] uav1.pos.z > 0\n"
+           "spec b = eventually[0, 1] a\n"
+           "mission m {\n  horizon = 4 s\n  step = 0.5 s\n  require a and b and always a\n}\n"
+           "mission n {\n  horizon = 3 s\n  step = 0.25 s\n  require b\n}\n")
+    with pytest.raises(StlcError) as e:
+        program(src)
+    diags = e.value.diagnostics
+    # once, where the spec writes the interval (line 16), naming the mission; `n` is fine
+    assert [(d.code, d.span.line) for d in diags] == [("STL303", 16)]
+    assert "mission `m`" in diags[0].message and diags[0].help == "use 1 s"
+    assert program(src.replace("0.75", "1.5")).missions["m"].step == 0.5
 
 
 def test_named_specs_are_inlined():
@@ -499,3 +543,10 @@ def test_spans_point_into_the_source():
     assert (f.span.line, f.span.col) == (3, 10)
     assert (f.arg.span.line, f.arg.span.col) == (3, 24)
     assert p.spec_spans["a"].line == 3
+
+
+@pytest.mark.skipif(not SPECS, reason="no example files in specs/ yet")
+@pytest.mark.parametrize("path", SPECS, ids=[p.name for p in SPECS])
+def test_shipped_examples_check(path):
+    p = check(parse_file(str(path)))
+    assert p.missions or p.specs

@@ -205,8 +205,6 @@ def test_long_line_rendering_keeps_the_caret_on_the_span(tmp_path, capsys):
     assert source[at:at + 4] == "sped"
 
 
-@pytest.mark.xfail(strict=True, reason="check.py has no RecursionError guard: deep `not` "
-                   "nesting is an internal error (exit 4) instead of a diagnostic (exit 1)")
 def test_deeply_nested_formula_is_an_input_error(tmp_path, capsys):
     p = write(tmp_path, "deep.stl", "signal x\nspec a = " + "not\n" * 400 + "x > 1\n")
     assert main(["check", str(p)]) == 1

@@ -26,7 +26,8 @@ combine as ``s = lse-max(s_b)``, ``μ = Σ_b softmax(λ s)_b μ_b`` — because 
 softmax(λ s)_b equal Σ_{i∈b} e^{λ a_i} / Σ_i e^{λ a_i}, this is exactly the GKL mean of the
 union.  A single operand a is the block ``(a, a)``.
 
-Safe expression functions (the numpy reference ``stlc.smooth`` must use the same):
+Safe expression functions (``stlc.smooth``, the numpy reference, currently evaluates
+expressions exactly; the two agree wherever abs/sqrt/log/atan2/min/max are not used):
 
 ==============  ====================================================================
 ``abs(a)``      ``sqrt(a² + ABS_EPS²)``  (smooth, bias ≤ ABS_EPS)
@@ -111,6 +112,8 @@ class Alg:
 
     kinds: tuple[str, ...] = ("ineq",)
     empty: float = BIG
+    #: nondecreasing in every operand (so an operand may be lifted by a hypograph)
+    monotone: bool = True
 
     def leaf(self, a: ca.SX) -> Val:
         return (a,)
@@ -137,11 +140,14 @@ class LseAlg(Alg):
 
 
 class GklAlg(Alg):
-    """Blocks are ``(s, μ)``; a lifted ``s`` must be exact (the block weights depend on it
-    and the mean is not monotone in them), a lifted ``μ`` may sit below its value."""
+    """Blocks are ``(s, μ)``.  The GKL mean is not monotone in its operands (raising a low
+    operand raises its weight), so a lifted ``s`` must be exact; given the ``s``, the
+    combined mean is increasing in each block's ``μ``, which may therefore sit below its
+    value."""
 
     kinds = ("eq", "ineq")
     empty = -BIG
+    monotone = False
 
     def leaf(self, a: ca.SX) -> Val:
         return (a, a)

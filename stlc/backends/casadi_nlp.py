@@ -40,7 +40,7 @@ STATUS_MAP = {
     "Maximum_Iterations_Exceeded": "max_iter", "Infeasible_Problem_Detected": "infeasible",
     "Restoration_Failed": "failed", "Error_In_Step_Computation": "failed",
     "Maximum_CpuTime_Exceeded": "max_time", "Search_Direction_Becomes_Too_Small": "acceptable",
-    "Invalid_Number_Detected": "failed",
+    "Invalid_Number_Detected": "failed", "User_Requested_Stop": "max_iter",
 }
 
 
@@ -66,6 +66,7 @@ class NlpProblem:
     n_vars: int
     n_cons: int
     root_fn: ca.Function  # w, p -> smooth robustness (lifted root)
+    progress: Progress
     energy_fn: ca.Function  # w -> Σ energy terms (objective units)
     lowered: LoweredRobustness
     build_s: float
@@ -117,7 +118,7 @@ def _channels(layouts: list[Layout], w: ca.SX, n: int) -> dict[str, ca.SX]:
 
 
 def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
-          integrator: str = "rk4") -> tuple[NlpProblem, InverseData]:
+          integrator: str = "rk4", quiet: bool = True) -> tuple[NlpProblem, InverseData]:
     t0 = time.perf_counter()
     n, N = grid.n, grid.n_intervals
     layouts: list[Layout] = []
@@ -183,11 +184,13 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     nlp = {"x": w, "p": p, "f": obj, "g": g}
     opts = dict(IPOPT_DEFAULTS)
     opts["ipopt.max_iter"] = int(mission.options.get("max_iter", 1000))
-    solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
     root_fn = ca.Function("root", [w, p], [lowered.root])
+    progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)
+    opts["iteration_callback"] = progress
+    solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
     energy_fn = ca.Function("energy", [w], [energy])
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
-                      w.numel(), g.numel(), root_fn, energy_fn, lowered,
+                      w.numel(), g.numel(), root_fn, progress, energy_fn, lowered,
                       time.perf_counter() - t0)
     chan_names = [c for L in layouts for c in L.vehicle.channels() + L.vehicle.input_channels()]
     inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), chan_names, formula)
@@ -236,11 +239,13 @@ class Progress(ca.Callback):
     """IPOPT iteration callback printing iteration, objective and smooth robustness."""
 
     def __init__(self, name: str, nx: int, ng: int, np_: int, root_fn: ca.Function,
-                 label: str, every: int = 10, stream=sys.stderr):
+                 label: str = "", every: int = 10, stream=sys.stderr, quiet: bool = True):
         ca.Callback.__init__(self)
         self.nx, self.ng, self.np_ = nx, ng, np_
         self.root_fn, self.label, self.every, self.stream = root_fn, label, every, stream
+        self.quiet = quiet
         self.it = 0
+        self.limit = 10**9  # stop the current solve after this many iterations
         self.p = np.zeros(np_)
         self.construct(name, {})
 
@@ -269,9 +274,9 @@ class Progress(ca.Callback):
         return ca.Sparsity(0, 0)
 
     def eval(self, arg):
-        if self.it % self.every == 0:
+        if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
                   f"smooth robustness {rho:+.4f}", file=self.stream, flush=True)
         self.it += 1
-        return [0]
+        return [1 if self.it >= self.limit else 0]

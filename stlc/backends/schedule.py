@@ -37,6 +37,8 @@ from stlc.timegrid import TimeGrid
 LAM_FACTOR = 3.0
 LAM_MAX = 300.0
 GUESS_LAM = 30.0
+FIRST_STAGE_ITER = 150  # the mission's own λ is often too small to mean anything (NLP_NOTES §1)
+STAGE_ITER = 600
 GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
 GUESS_ACC = 2.0  # m/s^2
 
@@ -142,13 +144,15 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
 
 
 def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
-           progress) -> tuple[np.ndarray, dict, float, float]:
+           label: str, limit: int) -> tuple[np.ndarray, dict, float, float]:
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
-    if progress is not None:
-        progress.p = np.array(p)
-        progress.it = 0
+    progress = prob.progress
+    progress.p = np.array(p)
+    progress.it = 0
+    progress.label = label
+    progress.limit = limit
     t0 = time.perf_counter()
     sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
     dt = time.perf_counter() - t0
@@ -156,8 +160,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
 
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
-                  inv: InverseData, w0: np.ndarray, progress=None, quiet: bool = True
-                  ) -> RawResult:
+                  inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
     params = program.params
     obj = mission.objective
     kappa = mission.threshold
@@ -178,11 +181,12 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         return st
 
     best, best_st = w, None
+    first = True
     while True:
-        if progress is not None:
-            progress.label = f"robustness λ={lam:g}"
+        limit = FIRST_STAGE_ITER if first and lam * LAM_FACTOR <= LAM_MAX else STAGE_ITER
+        first = False
         w, stats, f_, dt_ = _solve(prob, w, [lam, max(obj.robustness_weight, 1.0), 0, 0],
-                                   None, progress)
+                                   None, f"robustness λ={lam:g}", limit)
         st = record("robustness", lam, w, stats, f_, dt_)
         if best_st is None or st.exact > best_st.exact:
             best, best_st = w, st
@@ -194,12 +198,10 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
     result = RawResult(best, lam, stages)
     robust_w = best
     if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact > 0:
-        if progress is not None:
-            progress.label = f"energy λ={lam:g}"
         k_eff = min(kappa, best_st.smooth) if best_st.smooth > 0 else None
         w_e, stats, f_, dt_ = _solve(
             prob, best, [lam, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
-            k_eff, progress)
+            k_eff, f"energy λ={lam:g}", STAGE_ITER)
         st = record("energy", lam, w_e, stats, f_, dt_)
         if st.exact > 0 and st.status in ("optimal", "acceptable"):
             result.w = w_e
@@ -211,7 +213,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             continue
         w_c, stats, f_, dt_ = _solve(
             prob, robust_w, [lam, variant.robustness_weight, variant.energy_weight,
-                             variant.forward_weight], None, progress)
+                             variant.forward_weight], None, f"compare {name}", STAGE_ITER)
         record(f"compare {name}", lam, w_c, stats, f_, dt_)
         result.comparisons[name] = w_c
     return result

@@ -29,20 +29,27 @@ so the value equals the flat one up to rounding.
 
 **Lifting.**  Every value carries a *span*, the number of base operands (predicates or aux
 variables) it depends on through smooth ops.  When a smooth op's span exceeds
-``lift_span`` its result is replaced by a fresh variable r with the hypograph constraint
-``op(children) - r >= 0``, so every constraint couples ≤ 2·``lift_span`` variables and the
-Hessian stays sparse.  Soundness is kept: by induction every feasible lifted value is ≤ the
-exact robustness of its sub-formula — predicates are exact; ``r ≤ smin(x) ≤ min(x) ≤
-min(exact)``; ``r ≤ gkl(x) ≤ max(x) ≤ max(exact)`` because the GKL mean is a convex
-combination of its operands whatever their weights (the same holds for a combination of GKL
-blocks, whatever the block normalisers ``s``).  So a lifted root ρ̃ > 0 proves satisfaction
-(with ``method="gkl"``; ``lse`` over-approximates max and is not sound).  For a formula of
-smooth mins only, the lifted optimum equals the un-lifted one (smin is increasing in every
-operand).  The GKL mean is *not* monotone (raising a low operand raises its weight), so
-below a GKL max the optimiser may keep an r strictly under its op — the lifted optimum can
-then exceed the un-lifted smooth value, but never the exact robustness.  The ``s`` of a
-lifted GKL block is constrained by an *equality* (``h``): a free ``s`` would let the
-optimiser re-weight blocks at will.
+``lift_span`` its result is replaced by a fresh variable r constrained by
+``op(children) - r == 0`` (default) or, with ``hypograph=True``, ``op(children) - r >= 0``.
+Every constraint then couples ≤ 2·``lift_span`` variables and the Hessian stays sparse.  The
+root itself is never lifted (a linear objective ``-r`` made IPOPT wander far into
+infeasibility).
+
+*Equality* lifting is a change of variables: any feasible point has exactly the un-lifted
+smooth robustness, which is sound (smin ≤ min, GKL mean ≤ max; ``lse`` over-approximates).
+
+*Hypograph* lifting is a relaxation that stays sound: by induction every feasible r is ≤
+the exact robustness of its sub-formula — ``r ≤ smin(x) ≤ min(x) ≤ min(exact)`` and
+``r ≤ gkl(x) ≤ max(x) ≤ max(exact)``, the GKL mean being a convex combination of its
+operands whatever the weights.  It is exact at the optimum only where the path to the root
+is nondecreasing: the GKL mean is *not* monotone (raising a low operand raises its weight),
+so below a GKL max the optimiser would push r → -∞ to drop operands, and the relaxed
+problem's supremum is the non-smooth exact max, never attained.  Hence components on a
+non-monotone path (below a GKL ``or``/``eventually``/``until``/``release``), and the
+normaliser ``s`` of a GKL block, always get equalities.  Measured on a 3-D reach-and-stay
+problem (N = 170), hypograph lifting still failed at λ = 50 and 100 where equality lifting
+converged in 83–95 iterations: with a barrier method, a hypograph slack whose multiplier is
+~0 (a non-binding operand of a smooth min) is pushed to infinity by the barrier itself.
 """
 
 from __future__ import annotations
@@ -68,9 +75,17 @@ from stlc.timegrid import TimeGrid
 
 __all__ = ["LoweredRobustness", "LoweringError", "lower_robustness", "LOWER", "BIG"]
 
+_PARAM, _LAM = "param:", ":lam"  # input names of ``LoweredRobustness.init``
+
 
 @dataclass
 class LoweredRobustness:
+    """Smooth robustness as SX: maximise ``root`` over the trajectory and ``aux`` subject to
+    ``g >= 0`` and ``h == 0``.  ``init`` maps numeric channels (inputs named by signal),
+    symbolic parameters (``param:<name>``) and λ (``:lam``, if symbolic) to ``aux`` initial
+    values satisfying all constraints and to the un-lifted ``root``; ``init_values`` wraps it.
+    ``stats``: smooth-op ``operands``, ``aux``/``g``/``h`` sizes, evaluated formula ``nodes``."""
+
     root: ca.SX
     aux: ca.SX
     g: ca.SX
@@ -91,12 +106,12 @@ class LoweredRobustness:
         """Numeric aux initial values and the un-lifted smooth root for numeric inputs."""
         args: dict[str, object] = {}
         for name in self.init.name_in():
-            if name == "lam":
+            if name == _LAM:
                 args[name] = lam
-            elif name in channels:
-                args[name] = np.reshape(np.asarray(channels[name], float), (1, -1))
+            elif name.startswith(_PARAM):
+                args[name] = (params or {})[name[len(_PARAM):]]
             else:
-                args[name] = (params or {})[name]
+                args[name] = np.reshape(np.asarray(channels[name], float), (1, -1))
         out = self.init(**args)
         return np.array(out["aux"]).ravel(), float(out["root"])
 
@@ -182,7 +197,7 @@ class _Lowerer:
     ``"aux"`` (introduce aux variables and constraints)."""
 
     def __init__(self, grid: TimeGrid, env: ExprEnv, mode: str, dyadic: bool, lift_span: int,
-                 hypograph: bool = True):
+                 hypograph: bool = False):
         self.grid, self.n, self.env, self.lam = grid, grid.n, env, env.lam
         self.mode, self.dyadic, self.lift_span = mode, dyadic, lift_span
         self.hypograph = hypograph
@@ -193,6 +208,8 @@ class _Lowerer:
         self.g: list[ca.SX] = []
         self.h: list[ca.SX] = []
         self.operands = 0
+        self._last_lift: tuple | None = None
+        self.mono = True  # is the path from the node being lowered to the root monotone?
 
     # ---- smooth ops and lifting
 
@@ -202,24 +219,30 @@ class _Lowerer:
         self.operands += len(vals) * vals[0].size
         return _Val(alg.combine([v.comps for v in vals], self.lam), sum(v.span for v in vals))
 
-    def lift(self, v: _Val, kinds: tuple[str, ...]) -> _Val:
+    def lift(self, v: _Val, kinds: tuple[str, ...], mono: bool | None = None) -> _Val:
+        """Replace a wide value by aux variables.  ``"ineq"`` components get the hypograph
+        constraint only if the path to the root is monotone (``mono``, default: that of the
+        node being lowered); otherwise, and for ``"eq"`` components, an equality."""
         if self.mode == "none" or v.span <= self.lift_span:
             return v
         if self.mode == "shadow":
             self.init.extend(c.T for c in v.comps)
+            self._last_lift = (v.comps, v.comps, [self.init] * len(v.comps))
             return _Val(v.comps, 1)
-        syms = []
+        syms, lists = [], []
         for c, kind in zip(v.comps, kinds):
             r = ca.SX.sym(f"r{len(self.aux)}", 1, c.numel())
             self.aux.append(r.T)
-            ineq = kind == "ineq" and self.hypograph
-            (self.g if ineq else self.h).append((c - r).T)
+            hypo = kind == "ineq" and self.hypograph and (self.mono if mono is None else mono)
+            lists.append(self.g if hypo else self.h)
+            lists[-1].append((c - r).T)
             syms.append(r)
+        self._last_lift = (tuple(syms), v.comps, [self.aux] + lists)
         return _Val(tuple(syms), 1)
 
-    def finish(self, alg: Alg, v: _Val) -> _Val:
+    def finish(self, alg: Alg, v: _Val, mono: bool | None = None) -> _Val:
         """The plain value of a block, lifted if it is wide."""
-        return self.lift(_Val((alg.value(v.comps),), v.span), ("ineq",))
+        return self.lift(_Val((alg.value(v.comps),), v.span), ("ineq",), mono)
 
     def reduce(self, alg: Alg, vals: list[_Val]) -> _Val:
         """Plain smooth op of plain rows."""
@@ -246,21 +269,40 @@ class _Lowerer:
         visit(f)
         needs: dict[ir.Formula, list[np.ndarray]] = {f: [np.zeros(1, dtype=np.int64)]}
         need: dict[ir.Formula, np.ndarray] = {}
+        mono: dict[ir.Formula, bool] = {f: True}
         for node in reversed(order):  # parents before children
             k = np.unique(np.concatenate(needs.get(node, [np.zeros(0, dtype=np.int64)])))
             need[node] = k
             if len(k):
+                edge = mono[node] and self.edge_monotone(node)
                 for child, ks in _child_needs(node, k, self.grid):
                     needs.setdefault(child, []).append(ks)
+                    mono[child] = mono.get(child, True) and edge
         for node in order:  # children before parents
             k = need[node]
             if len(k):
+                self.mono = mono[node]
                 fn = LOWER.get(type(node))
                 if fn is None:
                     raise LoweringError(f"{type(node).__name__} is not an NNF node; "
                                         "run ir.normalize first")
                 self.rows[node] = _Row(k, fn(self, node, k))
-        return self.rows[f].val.comps[0][0, 0]
+        root = self.rows[f].val.comps[0]
+        last = self._last_lift
+        if last is not None and len(last[0]) == 1 and last[0][0] is root:
+            # never lift the root: a linear objective -r over a hypograph makes IPOPT take
+            # long infeasible steps; keep the root as the smooth op of its children
+            _, expr, lists = last
+            for lst in lists:
+                lst.pop()
+            root = expr[0]
+        return root[0, 0]
+
+    def edge_monotone(self, f: ir.Formula) -> bool:
+        """Is ``f`` nondecreasing in its children's values?  Not if a GKL max consumes them."""
+        if isinstance(f, ir.Or | ir.Eventually | ir.Until | ir.Release):
+            return self.max_alg.monotone
+        return True
 
     # ---- windows
 
@@ -327,6 +369,7 @@ class _Lowerer:
         pieces.append((no_window, _const(outer.empty, len(no_window))))
         prefix = acc = None
         active = len(k)
+        mono = self.mono and outer.monotone  # prefix and inner values are outer operands
         last_d = int(reach.max()) if len(k) and reach.max() >= a else -1
         for d in range(last_d + 1):
             m = int(np.count_nonzero(reach >= d))
@@ -337,11 +380,11 @@ class _Lowerer:
             ks = k[:m] + d
             term = self.leaf(inner, left.at(ks))
             prefix = term if prefix is None else self.lift(
-                self.combine(inner, [prefix.take(np.arange(m)), term]), inner.kinds)
+                self.combine(inner, [prefix.take(np.arange(m)), term]), inner.kinds, mono)
             if d < a:
                 continue
             cur = self.leaf(inner, right.at(ks))
-            op = self.leaf(outer, self.finish(inner, self.combine(inner, [cur, prefix])))
+            op = self.leaf(outer, self.finish(inner, self.combine(inner, [cur, prefix]), mono))
             acc = op if acc is None else self.lift(
                 self.combine(outer, [acc.take(np.arange(m)), op]), outer.kinds)
         if acc is not None:
@@ -439,13 +482,14 @@ def _is_symbolic(x: object) -> bool:
 def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX],
                      params: Mapping[str, Num], lam: Num, method: str = "gkl",
                      lift: bool = True, dyadic: bool = True, lift_span: int = 4,
-                     hypograph: bool = True) -> LoweredRobustness:
+                     hypograph: bool = False) -> LoweredRobustness:
     """Smooth robustness of the NNF formula ``f`` at sample 0 as CasADi SX.
 
     ``channels`` maps each signal to a 1×n SX row (n = ``grid.n``; entries may be decision
     variables or expressions of them); ``params`` and ``lam`` may be SX symbols or floats.
     ``lift`` introduces aux variables (see module docstring) for smooth ops wider than
-    ``lift_span`` operands; ``dyadic`` evaluates sliding windows from power-of-two blocks.
+    ``lift_span`` operands, constrained by equalities or (``hypograph``, where sound and
+    exact) by ``g >= 0``; ``dyadic`` evaluates sliding windows from power-of-two blocks.
     """
     n = grid.n
     sigs, pars = sorted(ir.signals(f)), sorted(ir.params(f))
@@ -463,10 +507,10 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
     ph_par = {p: ca.SX.sym(p) if _is_symbolic(params[p]) else params[p] for p in pars}
     ph_lam = ca.SX.sym("lam") if _is_symbolic(lam) else lam
     inputs = [ph_ch[s] for s in sigs] + [ph_par[p] for p in pars if _is_symbolic(params[p])]
-    names = sigs + [p for p in pars if _is_symbolic(params[p])]
+    names = sigs + [_PARAM + p for p in pars if _is_symbolic(params[p])]
     if _is_symbolic(lam):
         inputs.append(ph_lam)
-        names.append("lam")
+        names.append(_LAM)
 
     shadow = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "shadow" if lift else "none",
                       dyadic, lift_span)

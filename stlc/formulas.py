@@ -1,0 +1,303 @@
+"""Elaboration of formulas: comparisons, region membership, logic, temporal operators with
+their intervals, and quantifiers over groups of vehicles and regions → typed IR.
+
+``FormulaElaborator`` is a mixin of ``stlc.elaborate.Elaborator`` (which evaluates the
+expressions that formulas compare); this module also holds the checks of time bounds
+against a mission's step, which the checker reuses on inlined top-level specs.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from stlc import ast, ir, units
+from stlc.diagnostics import Span
+from stlc.timegrid import is_aligned
+from stlc.values import (
+    ERROR, ErrorV, Form, GroupV, HumanV, Num, RegionV, Sym, Value, VehicleV, add, const,
+    kind_name, mul, neg, sub, to_sym,
+)
+
+if TYPE_CHECKING:
+    from stlc.elaborate import Scope
+
+DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
+               "`regions` or a list like [uav1, uav2]")
+
+
+class FormulaElaborator:
+    """The formula half of the elaborator (``value``, ``number``, ``err`` and ``text`` come
+    from ``Elaborator``)."""
+
+    def formula(self, node: ast.Node, scope: Scope) -> ir.Formula | None:
+        v = self.value(node, scope)
+        if isinstance(v, Form):
+            return v.f
+        if isinstance(v, ErrorV):
+            return None
+        if isinstance(v, (Num, Sym)):
+            self.err("STL201", "expected a formula, found a number", node.span,
+                     "compare it with something, e.g. `... >= 0`")
+        else:
+            self.err("STL201", f"expected a formula, found {kind_name(v)}", node.span)
+        return None
+
+    def _v_not(self, n: ast.Not, scope: Scope) -> Value:
+        f = self.formula(n.arg, scope)
+        return ERROR if f is None else Form(ir.Not(f, n.span))
+
+    def _v_logic(self, n: ast.Logic, scope: Scope) -> Value:
+        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
+        if a is None or b is None:
+            return ERROR
+        if n.op == "implies":
+            return Form(ir.Implies(a, b, n.span))
+        cls = ir.And if n.op == "and" else ir.Or
+        return Form(cls((a, b), n.span))
+
+    def interval(self, iv: ast.Interval | None, scope: Scope) -> tuple[float, float] | None:
+        if iv is None:
+            return 0.0, math.inf
+        lo = self.number(iv.lo, scope, units.TIME, "a time bound")
+        hi = self.number(iv.hi, scope, units.TIME, "a time bound")
+        if lo is None or hi is None:
+            return None
+        ok = True
+        for t, node in ((lo, iv.lo), (hi, iv.hi)):
+            if math.isnan(t):
+                self.err("STL207", "time bound is not a number", node.span,
+                         "check the arithmetic: `0 * inf` and `inf - inf` are undefined")
+                ok = False
+            elif t < 0:
+                self.err("STL301", f"negative time bound {t:g} s", node.span,
+                         "time bounds are relative to now and must be >= 0")
+                ok = False
+        if ok and lo > hi:
+            self.err("STL302", f"interval bounds out of order: [{lo:g}, {hi:g}]", iv.span,
+                     f"did you mean [{hi:g}, {lo:g}]?")
+            ok = False
+        step = self.time.step
+        if ok and step:
+            for t, node in ((lo, iv.lo), (hi, iv.hi)):
+                if misaligned(t, step):
+                    self.err("STL303", f"time bound {t:g} s is not a multiple of the mission "
+                             f"step {step:g} s", node.span, nearest_hint(t, step))
+                    ok = False
+        return (lo, hi) if ok else None
+
+    def _v_temporal(self, n: ast.Temporal, scope: Scope) -> Value:
+        f = self.formula(n.arg, scope)
+        if n.op == "next":
+            return ERROR if f is None else Form(ir.Next(f, n.span))
+        iv = self.interval(n.interval, scope)
+        if f is None or iv is None:
+            return ERROR
+        cls = ir.Always if n.op == "always" else ir.Eventually
+        return Form(cls(iv[0], iv[1], f, n.span))
+
+    def _v_until(self, n: ast.Until, scope: Scope) -> Value:
+        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
+        iv = self.interval(n.interval, scope)
+        if a is None or b is None or iv is None:
+            return ERROR
+        return Form(ir.Until(iv[0], iv[1], a, b, n.span))
+
+    def _v_quant(self, n: ast.Quant, scope: Scope) -> Value:
+        dom = self.value(n.domain, scope)
+        if isinstance(dom, ErrorV):
+            return dom
+        if not isinstance(dom, GroupV):
+            return self.err("STL208", f"cannot range over {kind_name(dom)}", n.domain.span,
+                            DOMAIN_HINT)
+        bad = [v for v in dom.items if not isinstance(v, (VehicleV, RegionV, HumanV))]
+        if bad:  # an explicit list `[uav1, uav2]` may hold anything
+            return self.err("STL208", f"a quantifier ranges over vehicles, regions or humans, "
+                            f"the list holds {kind_name(bad[0])}", n.domain.span, DOMAIN_HINT)
+        if len(set(n.names)) != len(n.names):
+            return self.err("STL102", "the same name is bound twice", n.span)
+        combos = list(itertools.combinations(dom.items, len(n.names)))
+        parts = []
+        for combo in combos:
+            f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
+            if f is None:
+                return ERROR
+            parts.append(f)
+        if not parts:
+            return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
+        if len(parts) == 1:
+            return Form(parts[0])
+        return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))
+
+    def _v_compare(self, n: ast.Compare, scope: Scope) -> Value:
+        a, b = self.value(n.left, scope), self.value(n.right, scope)
+        pair = self._numeric_pair(a, b, n)
+        if pair is None:
+            return ERROR
+        sa, sb = pair
+        items = _broadcast(sa, sb)
+        if items is None:
+            return self.err("STL205", f"cannot compare {len(sa.items)} with {len(sb.items)} "
+                            "components", n.span)
+        label = self.text(n.span)
+        preds = []
+        for k, (x, y) in enumerate(items):
+            e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
+            lab = label if len(items) == 1 else f"{label} [{k + 1}]"
+            preds.append(ir.Pred(e, lab, n.span))
+        return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
+
+    def _numeric_pair(self, a: Value, b: Value, n) -> tuple[Sym, Sym] | None:
+        if isinstance(a, ErrorV) or isinstance(b, ErrorV):
+            return None
+        for v, node in ((a, n.left), (b, getattr(n, "right", None) or n)):
+            if isinstance(v, Form):
+                self.err("STL202", "expected a number, found a formula", node.span,
+                         "comparisons take numbers or signals on both sides")
+                return None
+            if not isinstance(v, (Num, Sym)):
+                self.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
+                return None
+        if not units.compatible(a.dim, b.dim):  # type: ignore[union-attr]
+            self.err("STL204", f"unit mismatch: comparing {units.describe(a.dim)} with "  # type: ignore
+                     f"{units.describe(b.dim)}", n.span,  # type: ignore[union-attr]
+                     _unit_hint(b.dim, a.dim))  # type: ignore[union-attr]
+            return None
+        sa = to_sym(a) if isinstance(a, Num) else a
+        sb = to_sym(b) if isinstance(b, Num) else b
+        return sa, sb  # type: ignore[return-value]
+
+    def _v_in(self, n: ast.In, scope: Scope) -> Value:
+        v = self.value(n.arg, scope)
+        if isinstance(v, ErrorV):
+            return v
+        if isinstance(n.region, ast.Range):
+            lo, hi = self.value(n.region.lo, scope), self.value(n.region.hi, scope)
+            p1 = self._numeric_pair(v, lo, _Pair(n.arg, n.region.lo, n.span))
+            p2 = self._numeric_pair(v, hi, _Pair(n.arg, n.region.hi, n.span))
+            if p1 is None or p2 is None:
+                return ERROR
+            i1, i2 = _broadcast(*p1), _broadcast(*p2)
+            if i1 is None or i2 is None:
+                return self.err("STL205", "range and value sizes do not match", n.span)
+            label = self.text(n.span)
+            preds = []
+            for (x, lo_e), (_, hi_e) in zip(i1, i2):
+                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span))
+                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span))
+            f: ir.Formula = ir.And(tuple(preds), n.span)
+        else:
+            reg = self.value(n.region, scope)
+            if isinstance(reg, ErrorV):
+                return reg
+            if not isinstance(reg, RegionV):
+                return self.err("STL208", f"expected a region after `in`, found {kind_name(reg)}",
+                                n.region.span, "regions are boxes: workspace, obstacles, "
+                                "targets, a human's regions, or box(lo, hi)")
+            if isinstance(v, Num):
+                v = to_sym(v)
+            if not isinstance(v, Sym) or len(v.items) != 3:
+                return self.err("STL205", "only a 3-D position can be in a region",
+                                n.arg.span, "e.g. `uav1.pos in workspace`")
+            if not units.compatible(v.dim, units.LENGTH):
+                return self.err("STL204", f"a region holds positions, found {units.describe(v.dim)}",
+                                n.arg.span)
+            f = box_membership(v.items, reg, self.text(n.span), n.span)
+        return Form(ir.Not(f, n.span) if n.negated else f)
+
+    def _v_range(self, n: ast.Range, scope: Scope) -> Value:
+        return self.err("STL208", "a range [lo, hi] may only follow `in`", n.span)
+
+    def _v_interval(self, n: ast.Interval, scope: Scope) -> Value:  # pragma: no cover
+        return self.err("STL208", "unexpected interval", n.span)
+
+
+@dataclass
+class _Pair:
+    left: ast.Node
+    right: ast.Node
+    span: Span
+
+
+# ---------------------------------------------------------------- shared helpers
+
+
+def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:
+    """``p in box`` as six predicates, in the human's frame when the box is attached to one."""
+    box = reg.box
+    if box.frame is not None:
+        p = world_to_frame(p, box.frame)
+    preds = []
+    for k, axis in enumerate("xyz"):
+        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span))
+        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span))
+    return ir.And(tuple(preds), span)
+
+
+def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
+    """R(att)ᵀ (p − pos) with R = Rz(yaw) Ry(pitch) Rx(roll), pose as IR parameters."""
+    d = [sub(p[k], ir.Param(f"{human}.pos.{a}")) for k, a in enumerate("xyz")]
+    r, pi_, y = (ir.Param(f"{human}.att.{a}") for a in "xyz")
+    cr, sr = ir.Call("cos", (r,)), ir.Call("sin", (r,))
+    cp, sp = ir.Call("cos", (pi_,)), ir.Call("sin", (pi_,))
+    cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
+    # rows of R^T = columns of R
+    R = [
+        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)), add(mul(mul(cy, sp), cr), mul(sy, sr))],
+        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)), sub(mul(mul(sy, sp), cr), mul(cy, sr))],
+        [neg(sp), mul(cp, sr), mul(cp, cr)],
+    ]
+    out = []
+    for j in range(3):  # (R^T d)_j = sum_i R[i][j] d_i
+        acc: ir.Expr = const(0.0)
+        for i in range(3):
+            acc = add(acc, mul(R[i][j], d[i]))
+        out.append(acc)
+    return tuple(out)
+
+
+def _broadcast(a: Sym, b: Sym):
+    if len(a.items) == len(b.items):
+        return list(zip(a.items, b.items))
+    if len(a.items) == 1:
+        return [(a.items[0], y) for y in b.items]
+    if len(b.items) == 1:
+        return [(x, b.items[0]) for x in a.items]
+    return None
+
+
+def _unit_hint(want, got) -> str | None:
+    u = units.example_unit(got)
+    return f"write the right-hand side in {u}" if u else None
+
+
+# ---------------------------------------------------------------- time bounds and the step
+
+
+def misaligned(t: float, step: float) -> bool:
+    """Is a (finite) time bound off the mission's sample grid?"""
+    if math.isinf(t):
+        return False
+    if not math.isfinite(t / step):
+        return True
+    return not is_aligned(t, step)
+
+
+def nearest_hint(t: float, step: float) -> str | None:
+    q = t / step
+    return f"use {round(q) * step:g} s" if math.isfinite(q) else None
+
+
+def misaligned_intervals(f: ir.Formula, step: float) -> Iterator[tuple[ir.Formula, float]]:
+    """Every temporal node of ``f`` with a bound off the grid of ``step`` (and that bound)."""
+    stack = [f]
+    while stack:
+        g = stack.pop()
+        if isinstance(g, (ir.Always, ir.Eventually, ir.Until, ir.Release)):
+            bad = [t for t in (g.lo, g.hi) if misaligned(t, step)]
+            if bad:
+                yield g, bad[0]
+        stack.extend(reversed(ir.children(g)))
