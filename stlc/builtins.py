@@ -11,7 +11,19 @@ import numpy as np
 from stlc import ast, model, units
 from stlc.elaborate import Elaborator, Scope
 from stlc.values import (
-    ERROR, DistV, ErrorV, Num, RegionV, RotorsV, Sym, Value, add, call, mul, to_sym,
+    ERROR,
+    DistV,
+    ErrorV,
+    Num,
+    RegionV,
+    RotorsV,
+    Sym,
+    Value,
+    add,
+    call,
+    kind_name,
+    mul,
+    to_sym,
 )
 
 
@@ -31,9 +43,7 @@ def _numeric(el: Elaborator, node: ast.Node, scope: Scope) -> Num | Sym | None:
     if isinstance(v, (Num, Sym)):
         return v
     if not isinstance(v, ErrorV):
-        code = "STL202"
-        el.err(code, f"expected a number, found {'a formula' if hasattr(v, 'f') else 'something else'}",
-               node.span)
+        el.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
     return None
 
 
@@ -259,6 +269,9 @@ def _rotor_geometry(kind: str):
             x = el.number(node, scope, allowed[name], name)
             if x is None:
                 return ERROR
+            if not math.isfinite(x):
+                return el.err("STL207", f"`{name}` must be a finite number, found {x:g}",
+                              node.span)
             kw[name] = x
         if "arm" not in kw:
             return el.err("STL104", f"`{kind}` needs `arm = ...`", n.span)
@@ -296,4 +309,3 @@ FUNCS = {
     "quadrotor": _rotor_geometry("quadrotor"),
 }
 
-assert math  # keep import for constants used by callers

@@ -17,8 +17,19 @@ import numpy as np
 from stlc import ast, ir, model, units
 from stlc.diagnostics import Collector, Span, StlcError, did_you_mean
 from stlc.elaborate import Elaborator, Scope
+from stlc.formulas import named_specs
 from stlc.values import (
-    DistV, ErrorV, Form, GroupV, HumanV, Num, RegionV, RotorsV, StrV, Sym, Value, VehicleV,
+    DistV,
+    ErrorV,
+    Form,
+    GroupV,
+    HumanV,
+    Num,
+    RegionV,
+    RotorsV,
+    StrV,
+    Sym,
+    VehicleV,
     kind_name,
 )
 
@@ -258,8 +269,9 @@ class Checker:
                 else:
                     inertia = tuple(tuple(float(x) for x in row) for row in arr)
             elif isinstance(v, Num):
-                self.d.error("STL204", f"unit mismatch: inertia must be {units.describe(units.INERTIA)}, "
-                             f"found {units.describe(v.dim)}", node.span, "write it in kg*m^2")
+                self.d.error("STL204", "unit mismatch: inertia must be "
+                             f"{units.describe(units.INERTIA)}, found {units.describe(v.dim)}",
+                             node.span, "write it in kg*m^2")
             elif not isinstance(v, ErrorV):
                 self.d.error("STL210", "inertia must be constant numbers", node.span)
         fmin = fmax = None
@@ -268,8 +280,9 @@ class Checker:
             arr = self.el.vector(node, self.globals, 2, units.FORCE, "the rotor force range")
             if arr is not None:
                 fmin, fmax = float(arr[0]), float(arr[1])
-                if not 0 <= fmin < fmax:
-                    self.d.error("STL207", "rotor force range must be 0 <= min < max", node.span)
+                if not 0 <= fmin < fmax < math.inf:
+                    self.d.error("STL207", "rotor force range must be 0 <= min < max (finite)",
+                                 node.span)
                     fmin = fmax = None
         rotors = self._rotors(b, f)
         start = self._start(b, {"pos": units.LENGTH, "att": units.ANGLE, "vel": units.SPEED,
@@ -492,58 +505,7 @@ class Checker:
     # ------------------------------------------------------------ specs
     def _specs(self, members: list[ast.Named], scope: Scope, step: float | None
                ) -> tuple[dict[str, ir.Formula], dict[str, Span]]:
-        """Elaborate named specs in order; a spec may use only the specs before it."""
-        specs: dict[str, ir.Formula] = {}
-        spans: dict[str, Span] = {}
-        seen: dict[str, Span] = {}  # every spec name so far, checked or not
-        pending: dict[str, ast.Named] = {}  # specs not elaborated yet (for STL106)
-        for m in reversed(members):
-            pending[m.name] = m
-        current: list[str] = []
-        self.el.time.step = step
-
-        def hook(name: str, span: Span) -> Value | None:
-            if current and name == current[0]:
-                self.d.error("STL106", f"spec `{name}` refers to itself", span,
-                             "a formula cannot be recursive; use `always` or `eventually` to "
-                             "repeat it over time")
-                return ErrorV()
-            if name in pending:
-                self.d.error("STL106", f"spec `{name}` is used before it is defined", span,
-                             f"move the definition of `{name}` (line "
-                             f"{pending[name].name_span.line}) above this spec")
-                return ErrorV()
-            return None
-
-        scope.lookup_hook = hook
-        for m in members:
-            if pending.get(m.name) is m:
-                del pending[m.name]
-            if not self._define_local(m, seen, scope):
-                continue
-            seen[m.name] = m.name_span
-            current[:] = [m.name]
-            f = self.el.formula(m.value, scope)
-            current.clear()
-            if f is not None:
-                specs[m.name] = f
-                spans[m.name] = m.span
-                scope.names[m.name] = Form(f)
-            else:
-                scope.names[m.name] = ErrorV()
-        scope.lookup_hook = None
-        return specs, spans
-
-    def _define_local(self, m: ast.Named, seen: dict[str, Span], scope: Scope) -> bool:
-        prev = seen.get(m.name)
-        if prev is None and scope.get(m.name) is not None:
-            prev = self.defined.get(m.name)  # a vehicle, signal, constant, ...
-        if prev is not None:
-            self.d.error("STL102", f"`{m.name}` is already defined"
-                         + (f" (line {prev.line})" if prev.known else ""),
-                         m.name_span, "rename this spec")
-            return False
-        return True
+        return named_specs(self, members, scope, step)
 
     # ------------------------------------------------------------ missions
     def _mission(self, b: ast.Block, top_specs: dict[str, ir.Formula]) -> model.Mission | None:

@@ -20,8 +20,26 @@ from stlc import ast, ir, model, units
 from stlc.diagnostics import Collector, Span, did_you_mean
 from stlc.formulas import FormulaElaborator, _broadcast
 from stlc.values import (
-    ERROR, DistV, ErrorV, Form, GroupV, HumanV, Num, RegionV, RotorsV, StrV, Sym, Value,
-    VehicleV, add, call, const, div, kind_name, mul, neg, sub, to_sym,
+    ERROR,
+    DistV,
+    ErrorV,
+    Form,
+    GroupV,
+    HumanV,
+    Num,
+    RegionV,
+    StrV,
+    Sym,
+    Value,
+    VehicleV,
+    add,
+    const,
+    div,
+    kind_name,
+    mul,
+    neg,
+    sub,
+    to_sym,
 )
 
 BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None),

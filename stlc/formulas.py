@@ -2,8 +2,9 @@
 their intervals, and quantifiers over groups of vehicles and regions → typed IR.
 
 ``FormulaElaborator`` is a mixin of ``stlc.elaborate.Elaborator`` (which evaluates the
-expressions that formulas compare); this module also holds the checks of time bounds
-against a mission's step, which the checker reuses on inlined top-level specs.
+expressions that formulas compare).  This module also holds the checks of time bounds
+against a mission's step, which the checker reuses on inlined top-level specs, and the
+checking of a sequence of named specs (``named_specs``).
 """
 
 from __future__ import annotations
@@ -18,11 +19,27 @@ from stlc import ast, ir, units
 from stlc.diagnostics import Span
 from stlc.timegrid import is_aligned
 from stlc.values import (
-    ERROR, ErrorV, Form, GroupV, HumanV, Num, RegionV, Sym, Value, VehicleV, add, const,
-    kind_name, mul, neg, sub, to_sym,
+    ERROR,
+    ErrorV,
+    Form,
+    GroupV,
+    HumanV,
+    Num,
+    RegionV,
+    Sym,
+    Value,
+    VehicleV,
+    add,
+    const,
+    kind_name,
+    mul,
+    neg,
+    sub,
+    to_sym,
 )
 
 if TYPE_CHECKING:
+    from stlc.check import Checker
     from stlc.elaborate import Scope
 
 DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
@@ -76,6 +93,10 @@ class FormulaElaborator:
                 self.err("STL301", f"negative time bound {t:g} s", node.span,
                          "time bounds are relative to now and must be >= 0")
                 ok = False
+        if ok and math.isinf(lo):
+            self.err("STL207", "the lower time bound must be finite", iv.lo.span,
+                     "only the upper bound may be `inf` (unbounded)")
+            ok = False
         if ok and lo > hi:
             self.err("STL302", f"interval bounds out of order: [{lo:g}, {hi:g}]", iv.span,
                      f"did you mean [{hi:g}, {lo:g}]?")
@@ -203,8 +224,8 @@ class FormulaElaborator:
                 return self.err("STL205", "only a 3-D position can be in a region",
                                 n.arg.span, "e.g. `uav1.pos in workspace`")
             if not units.compatible(v.dim, units.LENGTH):
-                return self.err("STL204", f"a region holds positions, found {units.describe(v.dim)}",
-                                n.arg.span)
+                return self.err("STL204", "a region holds positions, found "
+                                f"{units.describe(v.dim)}", n.arg.span)
             f = box_membership(v.items, reg, self.text(n.span), n.span)
         return Form(ir.Not(f, n.span) if n.negated else f)
 
@@ -246,8 +267,10 @@ def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
     cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
     # rows of R^T = columns of R
     R = [
-        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)), add(mul(mul(cy, sp), cr), mul(sy, sr))],
-        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)), sub(mul(mul(sy, sp), cr), mul(cy, sr))],
+        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)),
+         add(mul(mul(cy, sp), cr), mul(sy, sr))],
+        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)),
+         sub(mul(mul(sy, sp), cr), mul(cy, sr))],
         [neg(sp), mul(cp, sr), mul(cp, cr)],
     ]
     out = []
@@ -301,3 +324,56 @@ def misaligned_intervals(f: ir.Formula, step: float) -> Iterator[tuple[ir.Formul
             if bad:
                 yield g, bad[0]
         stack.extend(reversed(ir.children(g)))
+
+
+# ---------------------------------------------------------------- named specs
+
+
+def named_specs(ck: Checker, members: list[ast.Named], scope: Scope, step: float | None
+                ) -> tuple[dict[str, ir.Formula], dict[str, Span]]:
+    """Elaborate named specs in order (part of the checker pass): a spec may use only the
+    specs before it; a use of a later spec or of itself is STL106 where it is used."""
+    specs: dict[str, ir.Formula] = {}
+    spans: dict[str, Span] = {}
+    seen: dict[str, Span] = {}  # every spec name so far, checked or not
+    pending: dict[str, ast.Named] = {}  # specs not elaborated yet (first of each name)
+    for m in reversed(members):
+        pending[m.name] = m
+    current: list[str] = []
+    ck.el.time.step = step
+
+    def hook(name: str, span: Span) -> Value | None:
+        if current and name == current[0]:
+            ck.d.error("STL106", f"spec `{name}` refers to itself", span,
+                       "a formula cannot be recursive; use `always` or `eventually` to "
+                       "repeat it over time")
+            return ERROR
+        if name in pending:
+            ck.d.error("STL106", f"spec `{name}` is used before it is defined", span,
+                       f"move the definition of `{name}` (line "
+                       f"{pending[name].name_span.line}) above this spec")
+            return ERROR
+        return None
+
+    scope.lookup_hook = hook
+    for m in members:
+        if pending.get(m.name) is m:
+            del pending[m.name]
+        prev = seen.get(m.name)
+        if prev is None and scope.get(m.name) is not None:
+            prev = ck.defined.get(m.name)  # a vehicle, signal, constant, ...
+        if prev is not None:
+            ck.d.error("STL102", f"`{m.name}` is already defined"
+                       + (f" (line {prev.line})" if prev.known else ""),
+                       m.name_span, "rename this spec")
+            continue
+        seen[m.name] = m.name_span
+        current[:] = [m.name]
+        f = ck.el.formula(m.value, scope)
+        current.clear()
+        scope.names[m.name] = ERROR if f is None else Form(f)
+        if f is not None:
+            specs[m.name] = f
+            spans[m.name] = m.span
+    scope.lookup_hook = None
+    return specs, spans

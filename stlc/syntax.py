@@ -17,7 +17,7 @@ from importlib import resources
 from pathlib import Path as FsPath
 
 from lark import Lark, Token, Transformer, Tree, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from stlc import ast
 from stlc.diagnostics import Diagnostic, Span, StlcError

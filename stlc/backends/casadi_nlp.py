@@ -17,6 +17,7 @@ to a ``Solution`` in mission-level names, re-evaluated by the exact monitor.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -29,10 +30,34 @@ from stlc.backends.smooth_casadi import LoweredRobustness, lower_robustness
 from stlc.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
+STATE_REG = float(os.environ.get("STLC_SREG", 0.0))
+#: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
+#: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
+#: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
+FEASIBLE_DEFECT = 1e-6  # max dynamics defect of an iterate accepted as a plan
+ENVELOPE_TILT = np.deg2rad(60.0)
+ENVELOPE_RATE = 6.0
+ENVELOPE_VEL = 5.0
+ENVELOPE_DFORCE_TIME = 0.25
+
+
+def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
+    if not isinstance(v, model.Multirotor):
+        return b
+    x_lo, x_hi, u_lo, u_hi = (np.array(a, dtype=float) for a in (b.x_lo, b.x_hi, b.u_lo, b.u_hi))
+    x_lo[3:5], x_hi[3:5] = -ENVELOPE_TILT, ENVELOPE_TILT
+    x_lo[6:9], x_hi[6:9] = -ENVELOPE_VEL, ENVELOPE_VEL
+    x_lo[9:12], x_hi[9:12] = -ENVELOPE_RATE, ENVELOPE_RATE
+    if v.dforce_max is None:
+        r = (v.force_max - v.force_min) / ENVELOPE_DFORCE_TIME
+        u_lo[:], u_hi[:] = -r, r
+    return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
 IPOPT_DEFAULTS = {
     "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
-    "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4, "ipopt.acceptable_iter": 10,
-    "ipopt.mu_strategy": "adaptive", "ipopt.linear_solver": "mumps",
+    "ipopt.tol": float(os.environ.get("STLC_TOL", 1e-6)),
+    "ipopt.acceptable_tol": float(os.environ.get("STLC_ATOL", 1e-4)),
+    "ipopt.acceptable_iter": int(os.environ.get("STLC_AITER", 10)),
+    "ipopt.mu_strategy": os.environ.get("STLC_MU", "adaptive"), "ipopt.linear_solver": "mumps",
 }
 #: IPOPT's return statuses mapped to the shared solver status
 STATUS_MAP = {
@@ -63,6 +88,7 @@ class NlpProblem:
     lbg: np.ndarray
     ubg: np.ndarray
     kappa_row: int
+    n_dyn: int  # the first n_dyn constraint rows are the dynamics defects
     n_vars: int
     n_cons: int
     root_fn: ca.Function  # w, p -> smooth robustness (lifted root)
@@ -137,7 +163,8 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     formula = ir.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     lowered = lower_robustness(formula, grid, chans, program.params, lam,
-                               method=mission.smoothing.method)
+                               method=mission.smoothing.method,
+                               hypograph=os.environ.get("STLC_HYPO", "0") == "1")
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
     g_list, lbg, ubg = [], [], []
@@ -154,7 +181,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         g_list.append(ca.vec(X[:, 1:] - F(X[:, :-1], U)))
         lbg.append(np.zeros(L.nx * N))
         ubg.append(np.zeros(L.nx * N))
-        b = dynamics.bounds(v)
+        b = envelope(v, dynamics.bounds(v))
         lbx[L.x_slice] = np.tile(b.x_lo, n)
         ubx[L.x_slice] = np.tile(b.x_hi, n)
         lbx[L.u_slice] = np.tile(b.u_lo, N)
@@ -165,12 +192,15 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         ubx[start:start + L.nx] = x0
         reg += ca.sumsqr(U) / N
         if isinstance(v, model.Multirotor):
+            reg += STATE_REG * (ca.sumsqr(X[9:12, :]) + ca.sumsqr(X[3:5, :])) / n
+        if isinstance(v, model.Multirotor):
             xs = ca.SX.sym("x", L.nx)
             e_fn = ca.Function("e", [xs], [dynamics.energy_terms(v, xs, grid.dt)]).map(n)
             energy += ca.sum2(e_fn(X))
         elif mission.objective.forward_speed:
             vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)
             fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
+    n_dyn = sum(x.numel() for x in g_list)
     cons, lb_r, ub_r = lowered.constraints()
     g_list.append(cons)
     lbg.append(lb_r)
@@ -190,10 +220,18 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
     energy_fn = ca.Function("energy", [w], [energy])
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
-                      w.numel(), g.numel(), root_fn, progress, energy_fn, lowered,
+                      n_dyn, w.numel(), g.numel(), root_fn, progress, energy_fn, lowered,
                       time.perf_counter() - t0)
     chan_names = [c for L in layouts for c in L.vehicle.channels() + L.vehicle.input_channels()]
     inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), chan_names, formula)
+    params = dict(program.params)
+
+    def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
+        if n_dyn and np.max(np.abs(gv[:n_dyn])) > FEASIBLE_DEFECT:
+            return None
+        return exact_robustness(formula, inv, x, params)
+
+    progress.verify = verify
     return prob, inv
 
 
@@ -247,7 +285,19 @@ class Progress(ca.Callback):
         self.it = 0
         self.limit = 10**9  # stop the current solve after this many iterations
         self.p = np.zeros(np_)
+        #: anytime tracking: ``verify(x, g)`` returns the exact robustness of a dynamically
+        #: feasible iterate (None otherwise); the best one is kept, and a solve stops once
+        #: it has a satisfying plan that has not improved for ``patience`` iterations
+        self.verify = None
+        self.patience = 10**9
+        self.reset()
         self.construct(name, {})
+
+    def reset(self) -> None:
+        self.it = 0
+        self.best_x: np.ndarray | None = None
+        self.best_exact = -np.inf
+        self.best_it = 0
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -274,9 +324,17 @@ class Progress(ca.Callback):
         return ca.Sparsity(0, 0)
 
     def eval(self, arg):
+        exact = None
+        if self.verify is not None:
+            exact = self.verify(np.asarray(arg[0]).ravel(), np.asarray(arg[2]).ravel())
+            if exact is not None and exact > self.best_exact + 1e-4:
+                self.best_exact, self.best_x, self.best_it = exact, np.asarray(arg[0]).ravel(), \
+                    self.it
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
+            ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
-                  f"smooth robustness {rho:+.4f}", file=self.stream, flush=True)
+                  f"smooth {rho:+.4f}  exact {ex}", file=self.stream, flush=True)
         self.it += 1
-        return [1 if self.it >= self.limit else 0]
+        stagnant = self.best_exact > 0 and self.it - self.best_it > self.patience
+        return [1 if self.it >= self.limit or stagnant else 0]

@@ -121,20 +121,70 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
     return out
 
 
+def _yaw_along_course(V: np.ndarray, yaw0: float, dt: float) -> np.ndarray:
+    """Heading that follows the horizontal direction of motion where the vehicle moves
+    (> 0.1 m/s), holds it otherwise, unwrapped and smoothed (1 s moving average)."""
+    n = V.shape[1]
+    yaw = np.empty(n)
+    cur = yaw0
+    for k in range(n):
+        if np.hypot(V[0, k], V[1, k]) > 0.1:
+            c = np.arctan2(V[1, k], V[0, k])
+            cur = cur + np.arctan2(np.sin(c - cur), np.cos(c - cur))
+        yaw[k] = cur
+    w = max(1, int(round(1.0 / dt)))
+    pad = np.concatenate([np.full(w, yaw[0]), yaw, np.full(w, yaw[-1])])
+    smooth = np.convolve(pad, np.ones(2 * w + 1) / (2 * w + 1), mode="same")[w:-w]
+    smooth[0] = yaw0
+    return smooth
+
+
+def multirotor_guess(v: model.Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray,
+                     dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """A nearly dynamically consistent state/input guess along a kinematic path: roll and
+    pitch level, yaw along the course, rotor forces from the allocation that realise the
+    path's acceleration and yaw acceleration (least squares, clipped to the force range)."""
+    from stlc import geometry
+
+    n = P.shape[1]
+    yaw = _yaw_along_course(V, v.start_att[2], dt)
+    yaw_rate = np.gradient(yaw, dt)
+    yaw_acc = np.gradient(yaw_rate, dt)
+    W = geometry.wrench_matrix(v.rotors, v.c_f, v.c_tau)
+    Wp = np.linalg.pinv(W)
+    Jzz = np.array(v.inertia)[2, 2]
+    acc = np.hstack([A, A[:, -1:]])
+    forces = np.empty((len(v.rotors), n))
+    for k in range(n):
+        c, s = np.cos(yaw[k]), np.sin(yaw[k])
+        Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        f_body = Rz.T @ (v.mass * (acc[:, k] + np.array([0.0, 0.0, v.gravity])))
+        wrench = np.concatenate([f_body, [0.0, 0.0, Jzz * yaw_acc[k]]])
+        forces[:, k] = np.clip(Wp @ wrench, v.force_min, v.force_max)
+    X = np.zeros((12 + len(v.rotors), n))
+    X[0:3], X[6:9] = P, V
+    X[3:5] = 0.0
+    X[5] = yaw
+    X[11] = yaw_rate
+    X[12:] = forces
+    X[:, 0] = dynamics.initial_state(v)
+    U = np.diff(X[12:], axis=1) / dt
+    return X, U
+
+
 def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
                kin: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], lam: float
                ) -> np.ndarray:
-    """Decision vector from the kinematic path: level attitude, hover forces, zero inputs."""
+    """Decision vector from the kinematic path (see ``multirotor_guess``)."""
     n = inv.grid.n
     w = np.zeros(prob.n_vars)
     for L in inv.layouts:
         v = L.vehicle
         P, V, A = kin[v.name]
         if isinstance(v, model.Multirotor):
-            X = np.zeros((L.nx, n))
-            X[0:3], X[6:9] = P, V
-            X[12:] = dynamics.hover_forces(v)[:, None]
-            U = np.zeros((L.nu, n - 1))
+            X, U = multirotor_guess(v, P, V, A, inv.grid.dt)
+            lo, hi = prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu]
+            U = np.clip(U, lo[:, None], hi[:, None])
         else:
             X = np.vstack([P, V])
             U = A
@@ -144,19 +194,35 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
 
 
 def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
-           label: str, limit: int) -> tuple[np.ndarray, dict, float, float]:
+           label: str, limit: int, patience: int = 10**9, most_robust: bool = True
+           ) -> tuple[np.ndarray, dict, float, float]:
+    """One IPOPT solve.  With ``most_robust`` the result is the dynamically feasible iterate
+    with the best exact robustness (IPOPT's last iterate when that is as good); otherwise
+    the last iterate if it is feasible and satisfying, else the best one."""
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
     progress = prob.progress
     progress.p = np.array(p)
-    progress.it = 0
+    progress.reset()
     progress.label = label
     progress.limit = limit
+    progress.patience = patience
     t0 = time.perf_counter()
     sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
     dt = time.perf_counter() - t0
-    return np.asarray(sol["x"]).ravel(), prob.solver.stats(), float(sol["f"]), dt
+    x = np.asarray(sol["x"]).ravel()
+    stats = dict(prob.solver.stats())
+    # IPOPT's last iterate may be worse than (or infeasible unlike) the best verified one
+    ok = stats.get("return_status") in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    if progress.best_x is not None and (not ok or progress.best_exact > 0):
+        last = progress.verify(x, np.asarray(sol["g"]).ravel()) if progress.verify else None
+        keep_last = last is not None and (last >= progress.best_exact or
+                                          (not most_robust and last > 0))
+        if not keep_last:
+            x = progress.best_x
+            stats["best_iterate"] = progress.best_it
+    return x, stats, float(sol["f"]), dt
 
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
@@ -201,7 +267,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         k_eff = min(kappa, best_st.smooth) if best_st.smooth > 0 else None
         w_e, stats, f_, dt_ = _solve(
             prob, best, [lam, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
-            k_eff, f"energy λ={lam:g}", STAGE_ITER)
+            k_eff, f"energy λ={lam:g}", STAGE_ITER, most_robust=False)
         st = record("energy", lam, w_e, stats, f_, dt_)
         if st.exact > 0 and st.status in ("optimal", "acceptable"):
             result.w = w_e
@@ -213,7 +279,8 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             continue
         w_c, stats, f_, dt_ = _solve(
             prob, robust_w, [lam, variant.robustness_weight, variant.energy_weight,
-                             variant.forward_weight], None, f"compare {name}", STAGE_ITER)
+                             variant.forward_weight], None, f"compare {name}", STAGE_ITER,
+            most_robust=False)
         record(f"compare {name}", lam, w_c, stats, f_, dt_)
         result.comparisons[name] = w_c
     return result
