@@ -53,7 +53,7 @@ def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
         u_lo[:], u_hi[:] = -r, r
     return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
 IPOPT_DEFAULTS = {
-    "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
+    "ipopt.print_level": int(os.environ.get("STLC_PL", 0)), "ipopt.sb": "yes", "print_time": False,
     "ipopt.tol": float(os.environ.get("STLC_TOL", 1e-6)),
     "ipopt.acceptable_tol": float(os.environ.get("STLC_ATOL", 1e-4)),
     "ipopt.acceptable_iter": int(os.environ.get("STLC_AITER", 10)),
@@ -290,6 +290,9 @@ class Progress(ca.Callback):
         #: it has a satisfying plan that has not improved for ``patience`` iterations
         self.verify = None
         self.patience = 10**9
+        #: "robust": keep the feasible iterate with the best exact robustness; "objective":
+        #: keep the satisfying feasible iterate with the lowest objective (energy stages)
+        self.mode = "robust"
         self.reset()
         self.construct(name, {})
 
@@ -297,6 +300,7 @@ class Progress(ca.Callback):
         self.it = 0
         self.best_x: np.ndarray | None = None
         self.best_exact = -np.inf
+        self.best_score = -np.inf
         self.best_it = 0
 
     def get_n_in(self):
@@ -327,9 +331,14 @@ class Progress(ca.Callback):
         exact = None
         if self.verify is not None:
             exact = self.verify(np.asarray(arg[0]).ravel(), np.asarray(arg[2]).ravel())
-            if exact is not None and exact > self.best_exact + 1e-4:
-                self.best_exact, self.best_x, self.best_it = exact, np.asarray(arg[0]).ravel(), \
-                    self.it
+            if exact is not None:
+                if self.mode == "robust":
+                    score = exact
+                else:
+                    score = -float(arg[1]) if exact > 0 else -np.inf
+                if score > self.best_score + 1e-4 * max(1.0, abs(score)):
+                    self.best_score, self.best_exact = score, exact
+                    self.best_x, self.best_it = np.asarray(arg[0]).ravel(), self.it
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
             ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"

@@ -30,6 +30,7 @@ import numpy as np
 from stlc import dynamics, ir, model
 from stlc.backends.casadi_nlp import (
     STATUS_MAP, InverseData, NlpProblem, RawResult, Stage, exact_robustness, fill_aux,
+    trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.timegrid import TimeGrid
@@ -37,8 +38,10 @@ from stlc.timegrid import TimeGrid
 LAM_FACTOR = 3.0
 LAM_MAX = 300.0
 GUESS_LAM = 30.0
-FIRST_STAGE_ITER = 150  # the mission's own λ is often too small to mean anything (NLP_NOTES §1)
-STAGE_ITER = 600
+FIRST_STAGE_ITER = 200
+STAGE_ITER = 300
+PATIENCE = 30  # stop a stage 30 iterations after its best verified plan stopped improving
+MAX_LAM_STAGES = 4
 GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
 GUESS_ACC = 2.0  # m/s^2
 
@@ -208,6 +211,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     progress.label = label
     progress.limit = limit
     progress.patience = patience
+    progress.mode = "robust" if most_robust else "objective"
     t0 = time.perf_counter()
     sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
     dt = time.perf_counter() - t0
@@ -217,8 +221,10 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     ok = stats.get("return_status") in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     if progress.best_x is not None and (not ok or progress.best_exact > 0):
         last = progress.verify(x, np.asarray(sol["g"]).ravel()) if progress.verify else None
-        keep_last = last is not None and (last >= progress.best_exact or
-                                          (not most_robust and last > 0))
+        if most_robust:
+            keep_last = last is not None and last >= progress.best_exact
+        else:
+            keep_last = last is not None and last > 0 and ok
         if not keep_last:
             x = progress.best_x
             stats["best_iterate"] = progress.best_it
@@ -227,36 +233,38 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
                   inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
+    from stlc import smooth
+
     params = program.params
     obj = mission.objective
     kappa = mission.threshold
     lam = mission.smoothing.lam
-    w = w0
+    method = mission.smoothing.method
     stages: list[Stage] = []
 
     def record(label, lam_, w_, stats, f_, dt_):
-        smooth = float(prob.root_fn(w_, [lam_, 1, 0, 0]))
+        ch = trajectory_channels(w_, inv)
         exact = exact_robustness(inv.formula, inv, w_, params)
-        st = Stage(label, lam_, int(stats.get("iter_count", 0)),
-                   STATUS_MAP.get(stats.get("return_status", ""), "failed"), smooth, exact,
-                   dt_, f_)
+        sm = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, params, lam_, method))
+        status = STATUS_MAP.get(stats.get("return_status", ""), "failed")
+        if status == "max_iter" and "best_iterate" in stats:
+            status = "stopped"
+        st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_)
         stages.append(st)
         if not quiet:
             print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}, "
-                  f"smooth {smooth:+.4f}, exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
+                  f"smooth {sm:+.4f}, exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
         return st
 
-    best, best_st = w, None
-    first = True
-    while True:
-        limit = FIRST_STAGE_ITER if first and lam * LAM_FACTOR <= LAM_MAX else STAGE_ITER
-        first = False
+    w, best, best_st = w0, w0, None
+    for k in range(MAX_LAM_STAGES):
+        limit = FIRST_STAGE_ITER if k == 0 else STAGE_ITER
         w, stats, f_, dt_ = _solve(prob, w, [lam, max(obj.robustness_weight, 1.0), 0, 0],
-                                   None, f"robustness λ={lam:g}", limit)
+                                   None, f"robustness λ={lam:g}", limit, PATIENCE)
         st = record("robustness", lam, w, stats, f_, dt_)
         if best_st is None or st.exact > best_st.exact:
             best, best_st = w, st
-        if (st.exact > 0 and st.smooth >= kappa) or lam * LAM_FACTOR > LAM_MAX:
+        if st.exact > 0 or lam * LAM_FACTOR > LAM_MAX:
             break
         lam *= LAM_FACTOR
         w = fill_aux(prob, inv, w, params, lam)
@@ -266,10 +274,11 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
     if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact > 0:
         k_eff = min(kappa, best_st.smooth) if best_st.smooth > 0 else None
         w_e, stats, f_, dt_ = _solve(
-            prob, best, [lam, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
-            k_eff, f"energy λ={lam:g}", STAGE_ITER, most_robust=False)
+            prob, fill_aux(prob, inv, best, params, lam),
+            [lam, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
+            k_eff, f"energy λ={lam:g}", STAGE_ITER, PATIENCE, most_robust=False)
         st = record("energy", lam, w_e, stats, f_, dt_)
-        if st.exact > 0 and st.status in ("optimal", "acceptable"):
+        if st.exact > 0:
             result.w = w_e
     for name, variant in mission.options.get("compare", []):
         if variant is None:
@@ -278,9 +287,9 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             result.comparisons[name] = robust_w
             continue
         w_c, stats, f_, dt_ = _solve(
-            prob, robust_w, [lam, variant.robustness_weight, variant.energy_weight,
-                             variant.forward_weight], None, f"compare {name}", STAGE_ITER,
-            most_robust=False)
+            prob, fill_aux(prob, inv, robust_w, params, lam),
+            [lam, variant.robustness_weight, variant.energy_weight, variant.forward_weight],
+            None, f"compare {name}", STAGE_ITER, PATIENCE, most_robust=False)
         record(f"compare {name}", lam, w_c, stats, f_, dt_)
         result.comparisons[name] = w_c
     return result
