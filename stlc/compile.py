@@ -154,6 +154,7 @@ def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> So
     if comps:
         sol.extra["comparisons"] = comps
     sol.extra["bounds"] = _bounds(program, mission)
+    sol.extra["windows"] = _windows(program, mission)
     return sol
 
 
@@ -163,11 +164,51 @@ def _peak(ch: dict[str, np.ndarray], key: str) -> float:
 
 
 def _bounds(program: model.Program, mission: model.Mission) -> dict:
+    """Limits the report draws on its signal plots: the vehicles' own limits, and the
+    bounds that the mission's predicates put on speed, rotor speed and heading."""
     out: dict = {}
     for name in mission.vehicles:
         v = program.vehicles[name]
         if isinstance(v, model.Multirotor):
             out["force"] = [v.force_min, v.force_max]
+        else:
+            out["speed_axis"] = list(v.vel_max)
+    for p in ir.predicates(ir.normalize(mission.requirement)):
+        lab = p.label
+        const = _const_side(p.expr)
+        if const is None:
+            continue
+        if ".speed <=" in lab:
+            out["speed"] = [0.0, const]
+        elif ".rotor_speed in" in lab:
+            lo, hi = out.get("rotor_speed", [None, None])
+            out["rotor_speed"] = [const, hi] if "(lower)" in lab else [lo, const]
+        elif "angdiff" in lab and "<=" in lab and "deg" in lab:
+            out["heading_margin_deg"] = round(float(np.degrees(const)), 6)
+        elif "norm(" in lab and ">=" in lab:
+            out["distance_min"] = const
+    return out
+
+
+def _const_side(e: ir.Expr) -> float | None:
+    """``c - x`` or ``x - c`` → c (the bound of a simple predicate)."""
+    if isinstance(e, ir.Bin) and e.op == "-":
+        for side in (e.left, e.right):
+            if isinstance(side, ir.Const):
+                return abs(side.value)
+    return None
+
+
+def _windows(program: model.Program, mission: model.Mission) -> list[dict]:
+    """The outermost time window of each named spec (shaded on the report's plots)."""
+    out = []
+    for name, (f, _) in mission_specs(program, mission).items():
+        g = f
+        while isinstance(g, ir.And) and len(g.args) == 1:
+            g = g.args[0]
+        if isinstance(g, (ir.Always, ir.Eventually, ir.Until)):
+            hi = min(g.hi, mission.horizon)
+            out.append({"spec": name, "start": g.lo, "end": hi})
     return out
 
 
@@ -204,21 +245,6 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
         raise
 
 
-def run_risk(program: model.Program, mission: model.Mission, sol: Solution):
-    """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results)."""
-    from stlc import risk as riskmod
-
-    cfg = mission.risk
-    if cfg is None:
-        return None, None
-    specs = {k: ir.normalize(f) for k, (f, _) in mission_specs(program, mission).items()}
-    base = tuple(d for h in program.scenario.humans for d in h.uncertain)
-    results = riskmod.run_cases(cfg, ir.normalize(mission.requirement), specs, mission.step,
-                                sol.channels, program.params, mission.smoothing.lam,
-                                mission.smoothing.method, base=base)
-    return {"cases": [r.to_json() for r in results]}, results
-
-
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
                  quiet: bool = False, risk: bool = True) -> int:
     from stlc.pipeline import load
@@ -249,6 +275,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         risk_json = results = None
         if risk and m.risk is not None:
             tr = time.perf_counter()
+            from stlc.assess import run_risk
+
             risk_json, results = run_risk(program, m, sol)
             sol.timing["risk_s"] = time.perf_counter() - tr
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
@@ -275,38 +303,3 @@ def _summary(sol: Solution, outdir: str) -> None:
             at = f" at t = {s.tightest_time:g} s" if s.tightest_time is not None else ""
             print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
                   f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
-
-
-def risk_file(path: str, trajectory: str, mission: str | None = None,
-              out: str | None = None) -> int:
-    from stlc.pipeline import load
-    from stlc.trace import check_signals, read_trace
-
-    program = load(path).program
-    names = [mission] if mission else [m for m, mm in program.missions.items() if mm.risk]
-    if not names or any(n not in program.missions for n in names):
-        raise StlcError([Diagnostic("STL109", "no mission with a `risk` block to assess",
-                                    Span(path, 1, 1, 1, 2), "pass --mission NAME")])
-    trace = read_trace(trajectory)
-    for name in names:
-        m = program.missions[name]
-        check_signals(trace, ir.signals(m.requirement))
-        sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
-        risk_json, results = run_risk(program, m, sol)
-        if risk_json is None:
-            continue
-        outdir = out or os.path.dirname(os.path.abspath(trajectory))
-        os.makedirs(outdir, exist_ok=True)
-        with open(os.path.join(outdir, "risk.json"), "w") as fh:
-            json.dump(risk_json, fh, indent=2, allow_nan=False)
-        from stlc.risk import save_samples
-
-        save_samples(os.path.join(outdir, "risk_samples.npz"), results)
-        _print_risk(risk_json)
-    return EXIT_OK
-
-
-def _print_risk(risk_json: dict) -> None:
-    for c in risk_json["cases"]:
-        var = "  ".join(f"VaR{b}={v['value']:+.3f}" for b, v in c["var"].items())
-        print(f"{c['name']}: K={c['K']}  p_violation={c['p_violation']['value']:.3f}  {var}")
