@@ -196,7 +196,8 @@ class Field:
 
 @dataclass(frozen=True, slots=True)
 class Named:
-    """``kind name = value`` — ``spec phi = ...``, ``obstacle pole = box(...)``, ``const T = 17 s``."""
+    """``kind name = value``: ``spec phi = ...``, ``obstacle pole = box(...)``,
+    ``const T = 17 s``."""
 
     kind: str
     name: str

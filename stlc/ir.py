@@ -175,7 +175,8 @@ class Next:
     span: Span = field(default=NO_SPAN, compare=False)
 
 
-Formula = Pred | TrueF | FalseF | Not | And | Or | Implies | Always | Eventually | Until | Release | Next
+Formula = (Pred | TrueF | FalseF | Not | And | Or | Implies | Always | Eventually | Until
+           | Release | Next)
 
 FORMULA_NODES = (Pred, TrueF, FalseF, Not, And, Or, Implies, Always, Eventually, Until, Release,
                  Next)

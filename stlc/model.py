@@ -149,7 +149,7 @@ class Smoothing:
 
 @dataclass(frozen=True, slots=True)
 class Objective:
-    """minimise  energy_weight * E  +  forward_weight * Σ(1 - v_for/v*)^2  -  robustness_weight * ρ̃"""
+    """minimise  energy_weight·E + forward_weight·Σ(1 − v_for/v*)² − robustness_weight·ρ̃"""
 
     robustness_weight: float = 1.0
     energy_weight: float = 0.0

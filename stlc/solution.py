@@ -39,7 +39,8 @@ class Solution:
     energy: float
     times: np.ndarray  # (n,)
     channels: dict[str, np.ndarray]  # every state/input/derived channel, each (n,)
-    timing: dict[str, float] = field(default_factory=dict)  # parse_s check_s build_s solve_s total_s
+    #: parse_s check_s build_s solve_s total_s
+    timing: dict[str, float] = field(default_factory=dict)
     solver: dict[str, object] = field(default_factory=dict)  # name iterations return_status ...
     smoothing: dict[str, object] = field(default_factory=dict)  # method, lam, schedule
     problem_size: dict[str, int] = field(default_factory=dict)  # variables, constraints, samples
@@ -69,6 +70,10 @@ class Solution:
             "smoothing": self.smoothing,
             "problem_size": self.problem_size,
             "notes": self.notes,
+            "comparisons": [{k: v for k, v in c.items() if k != "energy_profile"}
+                            for c in self.extra.get("comparisons", [])],
+            "peak": {"speed": _peak(self.channels, ".speed"),
+                     "rotor_speed": _peak(self.channels, ".rotor_speed.")},
         }
 
     def to_json(self) -> str:
@@ -82,6 +87,12 @@ class Solution:
         for k, t in enumerate(self.times):
             w.writerow([f"{t:.6g}", *(f"{self.channels[c][k]:.9g}" for c in names)])
         return buf.getvalue()
+
+
+def _peak(channels: dict[str, np.ndarray], key: str) -> float | None:
+    """Largest value over the channels whose name contains ``key``."""
+    vals = [float(np.max(v)) for k, v in channels.items() if key in k]
+    return max(vals) if vals else None
 
 
 def _json_default(o):

@@ -117,6 +117,8 @@ class Stage:
     exact: float
     solve_s: float
     objective: float
+    t_functions: float = 0.0  # IPOPT's function/derivative evaluations (t_wall_nlp_*)
+    t_verify: float = 0.0  # exact-monitor checks of iterates in the callback
 
 
 @dataclass
@@ -302,6 +304,7 @@ class Progress(ca.Callback):
         self.best_exact = -np.inf
         self.best_score = -np.inf
         self.best_it = 0
+        self.t_verify = 0.0
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -329,6 +332,7 @@ class Progress(ca.Callback):
 
     def eval(self, arg):
         exact = None
+        t0 = time.perf_counter()
         if self.verify is not None:
             exact = self.verify(np.asarray(arg[0]).ravel(), np.asarray(arg[2]).ravel())
             if exact is not None:
@@ -339,6 +343,7 @@ class Progress(ca.Callback):
                 if score > self.best_score + 1e-4 * max(1.0, abs(score)):
                     self.best_score, self.best_exact = score, exact
                     self.best_x, self.best_it = np.asarray(arg[0]).ravel(), self.it
+        self.t_verify += time.perf_counter() - t0
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
             ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"

@@ -29,7 +29,13 @@ import numpy as np
 
 from stlc import dynamics, ir, model
 from stlc.backends.casadi_nlp import (
-    STATUS_MAP, InverseData, NlpProblem, RawResult, Stage, exact_robustness, fill_aux,
+    STATUS_MAP,
+    InverseData,
+    NlpProblem,
+    RawResult,
+    Stage,
+    exact_robustness,
+    fill_aux,
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
@@ -179,7 +185,6 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
                kin: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], lam: float
                ) -> np.ndarray:
     """Decision vector from the kinematic path (see ``multirotor_guess``)."""
-    n = inv.grid.n
     w = np.zeros(prob.n_vars)
     for L in inv.layouts:
         v = L.vehicle
@@ -249,7 +254,9 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         status = STATUS_MAP.get(stats.get("return_status", ""), "failed")
         if status == "max_iter" and "best_iterate" in stats:
             status = "stopped"
-        st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_)
+        t_fn = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
+        st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_,
+                   t_fn, prob.progress.t_verify)
         stages.append(st)
         if not quiet:
             print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}, "
@@ -272,14 +279,27 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
     result = RawResult(best, lam, stages)
     robust_w = best
     if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact > 0:
-        k_eff = min(kappa, best_st.smooth) if best_st.smooth > 0 else None
+        # paper A eq. 6: minimise w·E − ρ̃ subject to ρ̃ ≥ κ.  The constraint is imposed at the
+        # smallest λ of the schedule where the robust plan already meets it (so the solve
+        # starts feasible); GKL is sound, so ρ̃ ≥ κ > 0 then certifies every iterate.
+        lam_e, k_eff = lam, None
+        ch = trajectory_channels(best, inv)
+        while lam_e <= LAM_MAX:
+            sm = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, params, lam_e,
+                                                method))
+            if sm >= kappa:
+                k_eff = kappa
+                break
+            lam_e *= LAM_FACTOR
+        if k_eff is None:
+            lam_e = lam
         w_e, stats, f_, dt_ = _solve(
-            prob, fill_aux(prob, inv, best, params, lam),
-            [lam, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
-            k_eff, f"energy λ={lam:g}", STAGE_ITER, PATIENCE, most_robust=False)
-        st = record("energy", lam, w_e, stats, f_, dt_)
+            prob, fill_aux(prob, inv, best, params, lam_e),
+            [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
+            k_eff, f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE, most_robust=False)
+        st = record("energy", lam_e, w_e, stats, f_, dt_)
         if st.exact > 0:
-            result.w = w_e
+            result.w, result.lam = w_e, lam_e
     for name, variant in mission.options.get("compare", []):
         if variant is None:
             continue
