@@ -10,7 +10,6 @@ it); vehicles, the scenario and constants can appear anywhere in the file.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -27,7 +26,6 @@ from stlc.values import (
     Num,
     RegionV,
     RotorsV,
-    StrV,
     Sym,
     VehicleV,
     kind_name,
@@ -514,5 +512,3 @@ class Checker:
         return check_mission(self, b, top_specs)
 
 
-CheckFn = Callable[[ast.File], model.Program]
-assert math and StrV and StlcError

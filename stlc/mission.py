@@ -10,7 +10,7 @@ from stlc import ast, ir, model, units
 from stlc.diagnostics import Span, did_you_mean
 from stlc.formulas import misaligned_intervals, nearest_hint
 from stlc.timegrid import is_aligned
-from stlc.values import ErrorV, Form, GroupV, Num, StrV, VehicleV
+from stlc.values import GroupV, StrV, VehicleV
 
 if TYPE_CHECKING:
     from stlc.check import Checker
@@ -358,4 +358,3 @@ def _replan(ck: Checker, b: ast.Block, specs: dict) -> model.ReplanConfig | None
     return model.ReplanConfig(thr, te, tg, tc, tuple(keep))  # type: ignore[arg-type]
 
 
-assert math and Num and Form and ErrorV
