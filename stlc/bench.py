@@ -8,6 +8,14 @@ trace at dt = 0.1 s for the formula used by RTAMT's published offline benchmark,
 and prints a plain-text table: samples, median and best time in ms and the ratio to
 RTAMT's ~97 ms.  No timing is asserted anywhere; this is a report.
 
+``compile FILE [--mission NAME] [--repeats 3] [--step S]`` plans each mission of a file
+``repeats`` times and prints, per mission, the medians of: samples, variables, constraints,
+build / initial-guess / solve / total seconds, IPOPT iterations, exact and smooth robustness,
+energy, and the ratio of the total to paper A's ~11 minutes (660 s) per handover plan.  A
+second table splits IPOPT's time (summed over the solve stages) into function and derivative
+evaluations (``t_wall_nlp_f/g/grad_f/jac_g/hess_l`` from the solver's stats), the iteration
+callback (exact-monitor checks of iterates) and the rest (linear algebra + IPOPT overhead).
+
 Subcommands register themselves in ``COMMANDS`` (name -> (help, add_arguments, run)), so
 another benchmark is one function pair away.
 """
@@ -15,10 +23,11 @@ another benchmark is one function pair away.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -98,10 +107,157 @@ def _monitor_run(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- compile
+
+PAPER_S = 660.0  # paper A: ~11 minutes per handover plan
+#: IPOPT's evaluation timers (prob.solver.stats()), in table order
+NLP_TIMERS = ("nlp_f", "nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
+
+
+def _compile_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE", help="a .stl file with missions")
+    p.add_argument("--mission", metavar="NAME", default=None,
+                   help="only this mission (default: every mission of the file)")
+    p.add_argument("--repeats", type=int, default=3, help="timed plans per mission (default 3)")
+    p.add_argument("--step", type=float, default=None,
+                   help="override the missions' step in s (default: the file's)")
+
+
+@contextlib.contextmanager
+def _solver_stats() -> Iterator[list[dict]]:
+    """Collect IPOPT's stats of every solve stage of ``plan`` (one dict per stage).
+
+    ``schedule._solve`` returns ``prob.solver.stats()`` of the solve it ran; it is wrapped
+    for the duration of the block (the kinematic guess has its own solver and is timed as
+    ``guess_s``)."""
+    from stlc.backends import schedule
+
+    collected: list[dict] = []
+    orig = getattr(schedule, "_solve", None)
+    if orig is None:  # the schedule changed shape: the split is simply not reported
+        yield collected
+        return
+
+    def wrapped(*args, **kwargs):
+        out = orig(*args, **kwargs)
+        try:
+            collected.append(dict(out[1]))
+        except (TypeError, IndexError, ValueError):
+            pass
+        return out
+
+    schedule._solve = wrapped
+    try:
+        yield collected
+    finally:
+        schedule._solve = orig
+
+
+def _plan_once(program, mission, step: float | None, load_s: float) -> dict[str, float]:
+    from stlc.compile import plan
+
+    with _solver_stats() as stats:
+        t0 = time.perf_counter()
+        sol, raw, _inv, prob = plan(program, mission, quiet=True, step=step)
+        total = time.perf_counter() - t0 + load_s
+    if not stats:  # fall back to the last solve's stats
+        with contextlib.suppress(Exception):
+            stats.append(dict(prob.solver.stats()))
+    ps, tm = sol.problem_size, sol.timing
+    row = {
+        "samples": ps.get("samples", 0), "variables": ps.get("variables", prob.n_vars),
+        "constraints": ps.get("constraints", prob.n_cons),
+        "build_s": tm.get("build_s", 0.0), "guess_s": tm.get("guess_s", 0.0),
+        "solve_s": tm.get("solve_s", 0.0), "total_s": total,
+        "iterations": sol.solver.get("iterations", 0), "stages": len(raw.stages),
+        "exact": sol.robustness_exact, "smooth": sol.robustness_smooth, "energy": sol.energy,
+        "satisfied": float(sol.status == "satisfied"),  # summed, not medianed
+    }
+    for key in NLP_TIMERS:
+        row[key] = sum(float(s.get(f"t_wall_{key}", 0.0)) for s in stats)
+    row["callback"] = sum(float(s.get("t_wall_callback_fun", 0.0)) for s in stats)
+    row["functions"] = sum(row[k] for k in NLP_TIMERS)
+    row["rest"] = max(0.0, row["solve_s"] - row["functions"] - row["callback"])
+    return row
+
+
+def _median_row(runs: list[dict[str, float]]) -> dict[str, float]:
+    out = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    out["satisfied"] = sum(r["satisfied"] for r in runs)
+    out["runs"] = len(runs)
+    return out
+
+
+def _pct(part: float, whole: float) -> str:
+    return f"{part:.2f} ({100 * part / whole:.0f}%)" if whole > 0 else f"{part:.2f}"
+
+
+def _compile_run(args: argparse.Namespace) -> int:
+    from stlc.diagnostics import StlcError, render_all
+    from stlc.pipeline import load
+
+    repeats = max(1, args.repeats)
+    try:
+        t0 = time.perf_counter()
+        loaded = load(args.file)
+        load_s = time.perf_counter() - t0
+        program = loaded.program
+        if args.mission is not None and args.mission not in program.missions:
+            print(f"bench: no mission `{args.mission}` in {args.file} (missions: "
+                  f"{', '.join(program.missions) or 'none'})", file=sys.stderr)
+            return 1
+        names = [args.mission] if args.mission else list(program.missions)
+        if not names:
+            print(f"bench: {args.file} declares no mission", file=sys.stderr)
+            return 1
+        results: dict[str, dict[str, float]] = {}
+        for name in names:
+            runs = []
+            for i in range(repeats):
+                runs.append(_plan_once(program, program.missions[name], args.step, load_s))
+                r = runs[-1]
+                print(f"  {name} run {i + 1}/{repeats}: {r['total_s']:.2f} s, exact "
+                      f"{r['exact']:+.4f}", file=sys.stderr, flush=True)
+            results[name] = _median_row(runs)
+    except StlcError as e:
+        sources = {}
+        with contextlib.suppress(OSError):
+            with open(args.file, encoding="utf-8", errors="replace") as fh:
+                sources[args.file] = fh.read()
+        print(render_all(e.diagnostics, sources), file=sys.stderr)
+        return 1
+
+    step = f"step {args.step:g} s (override)" if args.step else "the file's step"
+    print(f"file:    {args.file} ({step}); parse + check {load_s:.2f} s")
+    print(f"repeats: {repeats} plan(s) per mission, medians shown; paper A: ~{PAPER_S:g} s "
+          "per handover plan\n")
+    rows = []
+    for name, r in results.items():
+        rows.append([name, f"{r['samples']:.0f}", f"{r['variables']:.0f}",
+                     f"{r['constraints']:.0f}", f"{r['build_s']:.2f}", f"{r['guess_s']:.2f}",
+                     f"{r['solve_s']:.2f}", f"{r['total_s']:.2f}", f"{r['iterations']:.0f}",
+                     f"{r['exact']:+.4f}", f"{r['smooth']:+.4f}", f"{r['energy']:.1f}",
+                     f"{r['satisfied']:.0f}/{r['runs']:.0f}", f"{r['total_s'] / PAPER_S:.4f}"])
+    print(table(["mission", "samples", "variables", "constraints", "build s", "guess s",
+                 "solve s", "total s", "iterations", "exact ρ", "smooth ρ", "energy J",
+                 "satisfied", f"/ paper {PAPER_S:g} s"], rows))
+    print("\nIPOPT time split, summed over the solve stages (s, share of solve s):\n")
+    rows = []
+    for name, r in results.items():
+        whole = r["solve_s"]
+        rows.append([name, *(f"{r[k]:.3f}" for k in NLP_TIMERS), _pct(r["functions"], whole),
+                     _pct(r["callback"], whole), _pct(r["rest"], whole), f"{whole:.2f}"])
+    print(table(["mission", "f", "g", "grad_f", "jac_g", "hess_l", "evaluations",
+                 "callback (monitor)", "rest (lin. alg. + IPOPT)", "solve s"], rows))
+    return 0
+
+
 #: name -> (help, add_arguments, run)
 COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
                           Callable[[argparse.Namespace], int]]] = {
     "monitor": ("time the exact monitor and the smooth reference", _monitor_args, _monitor_run),
+    "compile": ("time planning the missions of a file (medians of repeats)", _compile_args,
+                _compile_run),
 }
 
 

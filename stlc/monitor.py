@@ -373,3 +373,259 @@ def _bind(m: Evaluator, f: Formula, k: int) -> tuple[int, Pred | None]:
             seg = fs[:kp - k + 1]
             return _bind(m, left, k + int(np.argmin(seg) if is_until else np.argmax(seg)))
     return k, None
+
+
+
+# --------------------------------------------------------------------------- demand-driven
+
+
+def _kids(e) -> tuple:
+    """Children of a formula or expression node (``Pred`` → its expression)."""
+    match e:
+        case Pred(expr):
+            return (expr,)
+        case Neg(arg):
+            return (arg,)
+        case Bin(_, left, right):
+            return (left, right)
+        case Call(_, args):
+            return args
+        case Const() | Sig() | Param():
+            return ()
+    return ir.children(e)
+
+
+_FORMULAS = (Pred, TrueF, FalseF, Not, Implies, And, Or, Always, Eventually, Until, Release,
+             Next)
+_WINDOWED = (Always, Eventually, Until, Release)
+
+
+class Plan:
+    """Which samples of which node the values at sample 0 of some NNF formulas need.
+
+    The formulas' nodes (formulas and expressions, shared ones once) are numbered, children
+    first: ``nodes[i]``, ``kids[i]`` (child numbers), ``roots`` (numbers of the formulas).
+    ``need[i]`` is the hull ``(first, last)`` of the sample indices at which some parent
+    needs node i — e.g. ``eventually[8, 11] p`` at sample 0 needs ``p`` only at samples
+    80 … 110 (dt = 0.1) — or ``None`` when nothing needs it (a window past the end of the
+    trace).  ``timed[i]``: expression i reads a signal (else it is a constant or a
+    parameter, without a time axis).  Evaluators work on the numbers: nodes are hashed
+    only here, once."""
+
+    def __init__(self, roots, dt: float, n: int):
+        if not dt > 0:
+            raise ValueError(f"dt must be positive, got {dt}")
+        if n < 1:
+            raise ValueError("the trace has no samples")
+        self.dt, self.n = dt, n
+        index: dict = {}
+        self.nodes: list = []
+        self.kids: list[tuple[int, ...]] = []
+        for r in roots:  # iterative post-order: children are numbered before parents
+            if r in index:
+                continue
+            stack = [(r, False)]
+            while stack:
+                node, done = stack.pop()
+                if done:
+                    if node not in index:
+                        index[node] = len(self.nodes)
+                        self.nodes.append(node)
+                        self.kids.append(tuple(index[c] for c in _kids(node)))
+                    continue
+                if node in index:
+                    continue
+                if isinstance(node, (Not, Implies)):
+                    raise ValueError("Plan needs formulas in negation normal form "
+                                     "(ir.normalize)")
+                stack.append((node, True))
+                stack.extend((c, False) for c in reversed(_kids(node)) if c not in index)
+        self.roots = tuple(index[r] for r in roots)
+        self.steps = [_steps(f.lo, f.hi, dt) if isinstance(f, _WINDOWED) else None
+                      for f in self.nodes]
+        self.timed = [False] * len(self.nodes)
+        for i, node in enumerate(self.nodes):
+            self.timed[i] = isinstance(node, Sig) or (
+                not isinstance(node, _FORMULAS) and any(self.timed[c] for c in self.kids[i]))
+        need: list = [None] * len(self.nodes)
+        for r in self.roots:
+            need[r] = (0, 0)
+        for i in reversed(range(len(self.nodes))):  # parents before children
+            if need[i] is not None:
+                for c, (s, e) in self._child_needs(i, *need[i]):
+                    old = need[c]
+                    need[c] = (s, e) if old is None else (min(old[0], s), max(old[1], e))
+        self.need = need
+
+    def _child_needs(self, i: int, s: int, e: int):
+        n, node, kids = self.n, self.nodes[i], self.kids[i]
+        if isinstance(node, _WINDOWED):
+            a, b = self.steps[i]
+            if b >= a and s + a <= n - 1:
+                last = min(e + b, n - 1)
+                if isinstance(node, (Always, Eventually)):
+                    yield kids[0], (s + a, last)
+                else:
+                    yield kids[0], (s, last)
+                    yield kids[1], (s + a, last)
+        elif isinstance(node, Next):
+            if s + 1 <= n - 1:
+                yield kids[0], (s + 1, min(e + 1, n - 1))
+        else:
+            for c in kids:
+                yield c, (s, e)
+
+
+def _steps(lo: float, hi: float, dt: float) -> tuple[int, int]:
+    if lo < 0 or hi < 0:
+        raise ValueError(f"negative time bound in [{lo}, {hi}]")
+    return steps_ceil(lo, dt), steps_floor(hi, dt)
+
+
+def _pad(x: np.ndarray, length: int, fill: float, front: int = 0) -> np.ndarray:
+    """``x`` with ``front`` samples of ``fill`` before it, cut or padded to ``length``."""
+    if front:
+        x = np.concatenate([np.full(x.shape[:-1] + (front,), fill), x], axis=-1)
+    m = x.shape[-1]
+    if m >= length:
+        return x[..., :length]
+    return np.concatenate([x, np.full(x.shape[:-1] + (length - m,), fill)], axis=-1)
+
+
+class Demand:
+    """Robustness at sample 0 of several NNF formulas on one trace (a ``Plan``) in one
+    evaluation: a node shared by several formulas (a predicate, a human-frame coordinate, a
+    named spec inside the requirement) is computed once, and only on the samples its
+    parents need.  Same semantics as ``Evaluator`` (tests check it); parameters given as
+    arrays of shape (K,) give values of shape (K,).
+
+    ``exprs`` (expression values on their hull, by node number) may be shared with another
+    evaluator on the same plan, trace and parameters (``stlc.smooth.SmoothDemand`` reuses
+    the predicate values of the exact pass)."""
+
+    def __init__(self, plan: Plan, channels: Channels, params: Params | None = None, *,
+                 exprs: dict | None = None):
+        self.plan, self.n = plan, plan.n
+        self.channels, self.params = channels, {} if params is None else params
+        self.vals: dict[int, np.ndarray] = {}
+        self.exprs: dict = {} if exprs is None else exprs
+
+    def values(self) -> list:
+        """Values at sample 0 of the plan's formulas: floats, or arrays of shape (K,)."""
+        out = []
+        with np.errstate(all="ignore"):
+            for r in self.plan.roots:
+                v = self.at(r, 0, 0)[..., 0]
+                out.append(float(v) if v.ndim == 0 else v)
+        return out
+
+    def at(self, i: int, s: int, e: int) -> np.ndarray:
+        """Values of formula node i at samples s … e (within its hull)."""
+        v = self.vals.get(i)
+        first = self.plan.need[i][0]
+        if v is None:
+            v = self.vals[i] = self._rule(i, first, self.plan.need[i][1])
+        return v[..., s - first:e - first + 1]
+
+    def expr(self, i: int, s: int, e: int):
+        """Value of expression node i at samples s … e; constants and parameters as they
+        are (a float, or shape (K, 1))."""
+        v = self.exprs.get(i)
+        first, last = self.plan.need[i]
+        if v is None:
+            v = self.exprs[i] = self._expr_rule(i, first, last)
+        if not self.plan.timed[i]:
+            return v
+        return v[..., s - first:e - first + 1]
+
+    def _expr_rule(self, i: int, s: int, e: int):
+        x, kids = self.plan.nodes[i], self.plan.kids[i]
+        args = [self.expr(c, s, e) for c in kids]
+        match x:
+            case Const(value):
+                return float(value)
+            case Param(name):
+                return _param(name, self.params)
+            case Sig(name):
+                c = _channel(name, self.channels)
+                if c.shape != (self.n,):
+                    raise ValueError(f"signal `{name}` has shape {c.shape}, expected ({self.n},)")
+                return c[s:e + 1]
+            case Neg():
+                return np.negative(args[0])
+            case Bin(op):
+                return _BINARY[op](*args)
+            case Call():
+                return _call(x, args)
+        raise TypeError(f"not an expression node: {x!r}")
+
+    # ---- operators (``SmoothDemand`` overrides these three)
+    def conj(self, kids: list, is_and: bool) -> np.ndarray:
+        kids = sorted(kids, key=np.ndim)  # time-only operands first: smaller temporaries
+        op = np.minimum if is_and else np.maximum
+        out = kids[0]
+        for k in kids[1:]:
+            out = op(out, k)
+        return out
+
+    def window(self, x: np.ndarray, width: int, length: int, is_min: bool) -> np.ndarray:
+        """min/max of ``x[..., j : j + width + 1]`` (clipped) for j < ``length``."""
+        op, ident = (np.minimum, INF) if is_min else (np.maximum, -INF)
+        if length == 1:
+            return op.reduce(x, axis=-1, keepdims=True)
+        return _pad(sliding(x, 0, width, op, ident), length, ident)
+
+    def until(self, f: np.ndarray, g: np.ndarray, a: int, b: int, length: int,
+              is_until: bool) -> np.ndarray:
+        if is_until:
+            return _until(f, g, a, b)[..., :length]
+        return -_until(-f, -g, a, b)[..., :length]
+
+    # ---- formulas
+    def _rule(self, i: int, s: int, e: int) -> np.ndarray:
+        n, length = self.n, e - s + 1
+        f, kids = self.plan.nodes[i], self.plan.kids[i]
+        match f:
+            case Pred():
+                v = self.expr(kids[0], s, e)
+                return np.broadcast_to(v, np.broadcast_shapes(np.shape(v), (length,)))
+            case TrueF():
+                return np.full(length, INF)
+            case FalseF():
+                return np.full(length, -INF)
+            case And() | Or():
+                return self.conj([self.at(c, s, e) for c in kids], isinstance(f, And))
+            case Always() | Eventually():
+                is_min = isinstance(f, Always)
+                a, b = self.plan.steps[i]
+                if b < a or s + a > n - 1:
+                    return np.full(length, INF if is_min else -INF)
+                x = self.at(kids[0], s + a, min(e + b, n - 1))
+                return self.window(x, b - a, length, is_min)
+            case Until() | Release():
+                is_until = isinstance(f, Until)
+                a, b = self.plan.steps[i]
+                if b < a or s + a > n - 1:
+                    return np.full(length, -INF if is_until else INF)
+                last = min(e + b, n - 1)
+                fl = self.at(kids[0], s, last)
+                g = _pad(self.at(kids[1], s + a, last), last - s + 1, -INF, front=a)
+                fl, g = np.broadcast_arrays(fl, g)
+                return self.until(fl, g, a, b, length, is_until)
+            case Next():
+                if s + 1 > n - 1:
+                    return np.full(length, -INF)
+                return _pad(self.at(kids[0], s + 1, min(e + 1, n - 1)), length, -INF)
+        raise TypeError(f"not an NNF formula node: {f!r}")
+
+
+def robustness_many(formulas, dt: float, channels: Channels, params: Params | None = None,
+                    *, n: int | None = None) -> list:
+    """Robustness at the first sample of each formula (``ir.normalize`` is applied) in one
+    shared, demand-driven evaluation (``Demand``): floats, or arrays of shape (K,)."""
+    if n is None:
+        if not channels:
+            raise ValueError("no channels: pass the number of samples n")
+        n = len(next(iter(channels.values())))
+    plan = Plan([ir.normalize(f) for f in formulas], dt, n)
+    return Demand(plan, channels, params).values()

@@ -315,6 +315,44 @@ def _per_realisation(value, K: int) -> np.ndarray:
     return v
 
 
+#: realisations evaluated together by ``shared_robustness``: (chunk, samples) temporaries of
+#: ~1 MB stay in cache, and the memory use does not grow with K
+CHUNK = 1024
+
+
+def shared_robustness(formulas: Mapping[str, Formula], dt: float,
+                      channels: Mapping[str, np.ndarray], params: Mapping[str, object],
+                      K: int, lam: float = 10.0, method: str = "gkl", *,
+                      with_smooth: bool = True, chunk: int = CHUNK,
+                      ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Exact (and smooth) robustness at t = 0 of every formula for the K realisations of
+    ``params`` in one shared evaluation: a node common to several formulas (a named spec
+    inside the requirement, a predicate, the human-frame coordinates) is computed once,
+    only on the samples its parents need (``monitor.Plan``), and the smooth pass reuses the
+    exact pass's predicate values.  Realisations are processed ``chunk`` at a time.
+    Returns ``(exact, smooth)``, each ``{key: (K,) array}`` (smooth empty without it)."""
+    from stlc import ir
+    from stlc.monitor import Demand, Plan
+    from stlc.smooth import SmoothDemand
+
+    keys = list(formulas)
+    n = len(next(iter(channels.values())))
+    plan = Plan([ir.normalize(formulas[k]) for k in keys], dt, n)
+    exact = {k: np.empty(K) for k in keys}
+    smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
+    for lo in range(0, K, chunk):
+        hi = min(K, lo + chunk)
+        part = {k: (v[lo:hi] if isinstance(v, np.ndarray) else v) for k, v in params.items()}
+        ex = Demand(plan, channels, part)
+        for k, v in zip(keys, ex.values(), strict=True):
+            exact[k][lo:hi] = v
+        if with_smooth:
+            sm = SmoothDemand(plan, channels, part, lam, method, share=ex)
+            for k, v in zip(keys, sm.values(), strict=True):
+                smooth[k][lo:hi] = v
+    return exact, smooth
+
+
 def violation_drivers(requirement: np.ndarray, specs: Mapping[str, np.ndarray]) -> dict:
     """For each realisation violating the requirement (ρ ≤ 0), the named spec with the
     lowest robustness (ties: the first declared); counts and fractions per spec."""
@@ -348,18 +386,23 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
     sample range, see ``cvar_bounds``).
     """
     K = cfg.K
-    rob = robustness_fn or _default_monitor()
     dists = merge_distributions(base, case.distributions)
     params = sample_params(nominal_params, dists, K, cfg.seed)
     sampled = {k: v for k, v in params.items() if isinstance(v, np.ndarray)}
     chans = dict(channels)
     formulas = {"requirement": requirement, **{f"spec:{n}": f for n, f in specs.items()}}
-    exact = {k: _per_realisation(rob(f, dt, chans, params), K) for k, f in formulas.items()}
-    smooth: dict[str, np.ndarray] = {}
-    if with_smooth:
-        smo = smooth_fn or _default_smooth()
-        smooth = {k: _per_realisation(smo(f, dt, chans, params, lam, method=method), K)
-                  for k, f in formulas.items()}
+    if robustness_fn is None and smooth_fn is None:
+        exact, smooth = shared_robustness(formulas, dt, chans, params, K, lam, method,
+                                          with_smooth=with_smooth)
+    else:
+        rob = robustness_fn or _default_monitor()
+        exact = {k: _per_realisation(rob(f, dt, chans, params), K) for k, f in formulas.items()}
+        smooth = {}
+        if with_smooth:
+            smo = smooth_fn or _default_smooth()
+            smooth = {k: _per_realisation(smo(f, dt, chans, params, lam, method=method), K)
+                      for k, f in formulas.items()}
+    rob = robustness_fn or _default_monitor()
     nominal = float(rob(requirement, dt, chans, {k: float(v) for k, v in
                                                   nominal_params.items()}))
     spec_rho = {n: exact[f"spec:{n}"] for n in specs}

@@ -45,7 +45,7 @@ from stlc.ir import (
     TrueF,
     Until,
 )
-from stlc.monitor import Channels, Evaluator, Params, shift, sliding
+from stlc.monitor import Channels, Demand, Evaluator, Params, Plan, _pad, shift, sliding
 
 INF = np.inf
 METHODS = ("gkl", "lse")
@@ -184,3 +184,229 @@ def smooth_robustness(f: Formula, dt: float, channels: Channels, params: Params 
     """Smooth robustness of ``f`` at the first sample: a float, or shape ``(K,)``."""
     r = smooth_robustness_signal(f, dt, channels, params, lam, method, n=n)[..., 0]
     return float(r) if r.ndim == 0 else r
+
+
+# --------------------------------------------------------------------------- demand-driven
+
+
+def _all_finite(xs) -> bool:
+    """No inf or NaN in any of the arrays (a sum that overflows only sends a finite input
+    down the general path, which is also correct)."""
+    with np.errstate(all="ignore"):
+        return all(np.isfinite(np.sum(x)) for x in xs)
+
+
+class _Soft:
+    """A smooth min or max evaluated with a shift instead of a chain of ``logaddexp``.
+
+    The lifted value of an operand is ``u = sign·λ·x`` (sign −1 for the min); a reduction
+    is the state ``(M, D, N)`` with ``M = max u``, ``D = Σ e^(u − M)``, ``N = Σ x e^(u − M)``,
+    and smin = −(M + log D)/λ, LSE smax = (M + log D)/λ, GKL smax = N/D — the values of
+    ``smin``/``smax_lse``/``smax_gkl`` up to rounding.  Infinite operands give the exact
+    operators' infinities, as there: an operand at the absorbing end (−inf in a min, +inf in
+    a max) decides, one at the identity end drops out.  All-finite operands take a fast
+    path (one exp per operand and element, computed in place); time-only operands, shape
+    (n,), are reduced before the per-realisation ones, shape (K, n)."""
+
+    def __init__(self, lam: float, is_min: bool, gkl: bool):
+        self.lam, self.sign, self.gkl = lam, (-1.0 if is_min else 1.0), gkl and not is_min
+
+    # ---- states (general: any infinities)
+    def state(self, x: np.ndarray, axis: int | None = None):
+        """State of one operand (``axis=None``) or of a reduction along ``axis`` (kept)."""
+        u = (self.sign * self.lam) * x
+        m = u if axis is None else np.max(u, axis=axis, keepdims=True)
+        mf = np.where(np.isfinite(m), m, 0.0)
+        w = np.exp(u - mf)
+        d = w if axis is None else np.sum(w, axis=axis, keepdims=True)
+        if not self.gkl:
+            return m, d, None
+        xw = np.where(np.isfinite(x), x, 0.0) * w
+        return m, d, (xw if axis is None else np.sum(xw, axis=axis, keepdims=True))
+
+    def merge(self, states: list):
+        if len(states) == 1:
+            return states[0]
+        m = states[0][0]
+        for s in states[1:]:
+            m = np.maximum(m, s[0])
+        mf = np.where(np.isfinite(m), m, 0.0)
+        d = nn = 0.0
+        for s_m, s_d, s_n in states:
+            scale = np.exp(np.where(np.isfinite(s_m), s_m, -INF) - mf)
+            d = d + s_d * scale
+            if self.gkl:
+                nn = nn + s_n * scale
+        return m, d, (nn if self.gkl else None)
+
+    def value(self, state) -> np.ndarray:
+        m, d, nn = state
+        fin = np.isfinite(m)
+        if self.gkl:
+            return np.where(fin, nn / np.where(fin, d, 1.0), m)
+        v = (np.where(fin, m, 0.0) + np.log(np.where(fin, d, 1.0))) / self.lam
+        return np.where(fin, self.sign * v, self.sign * m)
+
+    def _group_state(self, xs: list):
+        if len(xs) == 1:
+            return self.state(xs[0])
+        st = self.state(np.stack(np.broadcast_arrays(*xs)), axis=0)
+        return tuple(None if c is None else c[0] for c in st)
+
+    # ---- reductions
+    def reduce(self, xs: list) -> np.ndarray:
+        """Smooth min/max of operands that broadcast together."""
+        xs = [np.asarray(x, dtype=float) for x in xs]
+        small = [x for x in xs if x.ndim < 2]
+        big = [x for x in xs if x.ndim >= 2]
+        if not _all_finite(xs):
+            states = ([self._group_state(small)] if small else []) + [
+                self._group_state([x]) for x in big]
+            return self.value(self.merge(states))
+        if not big:
+            return self.value(self._group_state(small))
+        # fast path: M from the extreme operand, then one exp per operand, in place
+        ext = np.minimum if self.sign < 0 else np.maximum
+        m = big[0]
+        for x in big[1:]:
+            m = ext(m, x)
+        m = m * (self.sign * self.lam)  # a new array: = max u over the big operands
+        s_state = self._group_state(small) if small else None
+        if s_state is not None:
+            m = np.maximum(m, s_state[0])
+        d = np.zeros(m.shape)
+        nn = np.zeros(m.shape) if self.gkl else None
+        t = np.empty(m.shape)
+        for x in big:
+            np.multiply(x, self.sign * self.lam, out=t)
+            t -= m
+            np.exp(t, out=t)
+            d += t
+            if self.gkl:
+                t *= x
+                nn += t
+        if s_state is not None:
+            scale = np.exp(s_state[0] - m)
+            d += s_state[1] * scale
+            if self.gkl:
+                nn += s_state[2] * scale
+        if self.gkl:
+            return nn / d
+        return self.sign * (m + np.log(d)) / self.lam
+
+    def along(self, x: np.ndarray) -> np.ndarray:
+        """Smooth min/max along the last axis (kept, with length 1)."""
+        if not _all_finite([x]):
+            return self.value(self.state(x, axis=-1))
+        u = (self.sign * self.lam) * x
+        m = np.max(u, axis=-1, keepdims=True)
+        u -= m
+        np.exp(u, out=u)
+        d = np.sum(u, axis=-1, keepdims=True)
+        if self.gkl:
+            u *= x
+            return np.sum(u, axis=-1, keepdims=True) / d
+        return self.sign * (m + np.log(d)) / self.lam
+
+    def window(self, x: np.ndarray, width: int, fallback: Aggregate) -> np.ndarray:
+        """Smooth min/max of ``x[..., j : j + width + 1]`` (clipped) for every j.
+
+        Each row is shifted by its largest lifted value, so every term is one exp ≤ 1, and
+        window sums are van Herk sums (``np.add``, no logaddexp).  Rows with a non-finite
+        value, or where a window's sum falls below ``1e-280`` (its terms more than ~640/λ
+        below the row's extreme: the shift is too coarse), are computed by ``fallback``."""
+        if x.shape[-1] == 0:
+            return x
+        rows = x.reshape(-1, x.shape[-1])
+        out = np.empty(rows.shape)
+        fin = np.all(np.isfinite(rows), axis=-1)
+        u = (self.sign * self.lam) * rows[fin]
+        m = np.max(u, axis=-1, keepdims=True)
+        u -= m
+        np.exp(u, out=u)
+        d = sliding(u, 0, width, np.add, 0.0, idempotent=False)
+        if self.gkl:  # (not in place: for width 0, d is u itself)
+            v = sliding(u * rows[fin], 0, width, np.add, 0.0, idempotent=False) / d
+        else:
+            v = self.sign * (m + np.log(d)) / self.lam
+        ok = np.all(d >= 1e-280, axis=-1)
+        out[np.flatnonzero(fin)[ok]] = v[ok]
+        slow = np.flatnonzero(fin)[~ok].tolist() + np.flatnonzero(~fin).tolist()
+        if slow:
+            out[slow] = fallback.window(rows[slow], 0, width)
+        return out.reshape(x.shape)
+
+
+class SmoothDemand(Demand):
+    """``monitor.Demand`` with the smooth semantics (same results as ``_Smooth`` up to
+    rounding; a test checks it).  ``share`` — an exact ``Demand`` on the same plan, trace and
+    parameters — lends its predicate values instead of recomputing them."""
+
+    def __init__(self, plan: Plan, channels: Channels, params: Params | None = None,
+                 lam: float = 10.0, method: str = "gkl", *, share: Demand | None = None):
+        if share is not None and share.plan is not plan:
+            raise ValueError("share must be a Demand on the same plan")
+        super().__init__(plan, channels, params, exprs=None if share is None else share.exprs)
+        if method not in METHODS:
+            raise ValueError(f"unknown smoothing method {method!r} (use one of {METHODS})")
+        if not lam > 0:
+            raise ValueError(f"lambda must be positive, got {lam}")
+        gkl = method == "gkl"
+        self.soft_min, self.soft_max = _Soft(lam, True, gkl), _Soft(lam, False, gkl)
+        self.smin = smin(lam)
+        self.smax = smax_gkl(lam) if gkl else smax_lse(lam)
+
+    def conj(self, kids: list, is_and: bool) -> np.ndarray:
+        if len(kids) == 1:
+            return kids[0]
+        return (self.soft_min if is_and else self.soft_max).reduce(kids)
+
+    def window(self, x: np.ndarray, width: int, length: int, is_min: bool) -> np.ndarray:
+        if length == 1:
+            return (self.soft_min if is_min else self.soft_max).along(x)
+        soft, agg = (self.soft_min, self.smin) if is_min else (self.soft_max, self.smax)
+        return _pad(soft.window(x, width, agg), length, INF if is_min else -INF)
+
+    def until(self, f: np.ndarray, g: np.ndarray, a: int, b: int, length: int,
+              is_until: bool) -> np.ndarray:
+        outer, inner = (self.smax, self.smin) if is_until else (self.smin, self.smax)
+        return _nested_head(outer, inner, f, g, a, b, length)
+
+
+def _nested_head(outer: Aggregate, inner: Aggregate, f: np.ndarray, g: np.ndarray, a: int,
+                 b: int, length: int) -> np.ndarray:
+    """``_nested`` at the first ``length`` samples only: O(length · window) work."""
+    n = f.shape[-1]
+    b = min(b, n - 1)
+    shape = f.shape[:-1] + (length,)
+    acc_out = outer.empty(shape)
+    if a > n - 1 or b < a:
+        return outer.value(acc_out)
+    lf, lg = inner.lift(f), inner.lift(g)
+    acc_in = inner.empty(shape)
+    idx = np.arange(length)
+    for j in range(b + 1):
+        acc_in = inner.combine(acc_in, tuple(_pad(c[..., j:], length, -INF) for c in lf))
+        if j < a:
+            continue
+        term = inner.value(inner.combine(acc_in, tuple(_pad(c[..., j:], length, -INF)
+                                                       for c in lg)))
+        valid = idx <= n - 1 - j
+        lifted = tuple(np.where(valid, c, -INF) for c in outer.lift(term))
+        acc_out = outer.combine(acc_out, lifted)
+    return outer.value(acc_out)
+
+
+def smooth_robustness_many(formulas, dt: float, channels: Channels,
+                           params: Params | None = None, lam: float = 10.0,
+                           method: str = "gkl", *, n: int | None = None) -> list:
+    """Smooth robustness at the first sample of each formula in one shared, demand-driven
+    evaluation (``SmoothDemand``): floats, or arrays of shape (K,)."""
+    if n is None:
+        if not channels:
+            raise ValueError("no channels: pass the number of samples n")
+        n = len(next(iter(channels.values())))
+    if n < 1:
+        raise ValueError("the trace has no samples")
+    plan = Plan([ir.normalize(f) for f in formulas], dt, n)
+    return SmoothDemand(plan, channels, params, lam, method).values()

@@ -17,10 +17,27 @@ import numpy as np
 import pytest
 
 from stlc.diagnostics import Span
-from stlc.ir import Always, And, Bin, Const, Eventually, Pred, Sig
-from stlc.model import Box, Human, Mission, Multirotor, Program, Region, Rotor, Scenario
-from stlc.report import build_view, render_report, script_json, write_report
-from stlc.report.view import num, region_role, rotation
+from stlc.ir import Always, And, Bin, Const, Eventually, Or, Pred, Sig
+from stlc.model import (
+    Box,
+    Human,
+    Mission,
+    Multirotor,
+    Normal,
+    Objective,
+    PointMass,
+    Program,
+    Region,
+    RiskCase,
+    RiskConfig,
+    Rotor,
+    Scenario,
+)
+from stlc.report import build_view, load_samples, render_report, script_json, write_report
+from stlc.report.common import num
+from stlc.report.predicates import predicate_line, readable
+from stlc.report.risk_view import MAX_BINS, MIN_BINS
+from stlc.report.scene import region_role, rotation
 from stlc.solution import Solution, SpecResult
 
 FILE = "demo.stl"
@@ -37,8 +54,8 @@ scenario {
 }
 mission demo {
   horizon = 2 s  step = 0.1 s
-  spec safe = always[0, 2] (uav1.pos.z <= 2.5 and uav1.pos.z >= 0.2)
-  spec reach = eventually[1, 2] (uav1.pos.x >= -0.5)
+  spec safe = always[0, 2] (uav1.pos.z <= 2.5 and uav1.pos.z >= 0.2 and uav1.pos not in operator.behind)
+  spec reach = eventually[1, 2] (uav1.pos.x >= -0.5 or uav1.pos in operator.ho)
   require safe and reach   # </script><img src=x onerror="window.__pwned=2">
 }
 """
@@ -57,13 +74,19 @@ def hexarotor() -> Multirotor:
                       2.38e-5, 0.29, 11.5, rotors, (-1.8, 0.0, 1.0), span=span(2))
 
 
+BEHIND = "not (uav1.pos not in operator.behind (x >= lo))"
+
+
 def formulas() -> dict:
     z_hi = Pred(Bin("-", Const(2.5), Sig("uav1.pos.z")), "uav1.pos.z <= 2.5", span(13, 28, 45))
     z_lo = Pred(Bin("-", Sig("uav1.pos.z"), Const(0.2)), "uav1.pos.z >= 0.2", span(13, 50, 67))
+    behind = Pred(Bin("-", Const(-1.0), Sig("uav1.pos.x")), BEHIND, span(13, 72, 103))
     reach = Pred(Bin("-", Sig("uav1.pos.x"), Const(-0.5)), f"uav1.pos.x >= -0.5 {NASTY}",
                  span(14, 34, 52))
-    return {"safe": Always(0.0, 2.0, And((z_hi, z_lo)), span(13)),
-            "reach": Eventually(1.0, 2.0, reach, span(14))}
+    ho = Pred(Bin("-", Sig("uav1.pos.y"), Const(2.3)), "uav1.pos in operator.ho (y >= lo)",
+              span(14, 56, 80))
+    return {"safe": Always(0.0, 2.0, And((z_hi, z_lo, behind)), span(13)),
+            "reach": Eventually(1.0, 2.0, Or((reach, ho)), span(14))}
 
 
 def program_and_mission() -> tuple[Program, Mission]:
@@ -75,12 +98,12 @@ def program_and_mission() -> tuple[Program, Mission]:
         regions=(
             Region("ws", "workspace", Box((-3.6, -2.85, 0.0), (3.6, 2.85, 2.5)), span(4)),
             Region("pillar", "obstacle", Box((1.5, -1.5, 0.0), (2.0, -1.0, 2.5)), span(5)),
-            Region("vis", "region", Box((0.5, -0.25, 0.8), (1.0, 0.25, 1.2), "operator"),
-                   span(7)),
-            Region("behind", "region", Box((-1.0, -0.5, 0.0), (-0.2, 0.5, 2.0), "operator"),
-                   span(8)),
-            Region("ho", "region", Box((0.3, -0.15, 0.9), (0.55, 0.15, 1.2), "operator"),
-                   span(9)),
+            Region("operator.vis", "region",
+                   Box((0.5, -0.25, 0.8), (1.0, 0.25, 1.2), "operator"), span(7)),
+            Region("operator.behind", "region",
+                   Box((-1.0, -0.5, 0.0), (-0.2, 0.5, 2.0), "operator"), span(8)),
+            Region("operator.ho", "region",
+                   Box((0.3, -0.15, 0.9), (0.55, 0.15, 1.2), "operator"), span(9)),
         ),
         humans=(Human("operator", (1.0, 2.0, 0.0), (0.0, 0.0, math.pi / 2), span=span(6)),),
     )
@@ -142,7 +165,7 @@ def synthetic_case(status: str = "satisfied", risk: bool = True
     violated = status != "satisfied"
     reach_rho = -0.12 if violated else 0.05
     specs = {
-        "safe": SpecResult(0.25, 0.21, True, 1.2, "uav1.pos.z <= 2.5", 13),
+        "safe": SpecResult(0.25, 0.21, True, 1.2, BEHIND, 13),
         "reach": SpecResult(reach_rho, reach_rho - 0.04, not violated, 1.5,
                             f"uav1.pos.x >= -0.5 {NASTY}", 14),
     }
@@ -220,7 +243,9 @@ def test_summary(view):
     assert s["smoothing_method"] == "gkl" and s["smoothing_lam_text"] == "50 (declared 10)"
     assert s["stages"]["columns"] == ["label", "λ", "iterations", "status", "exact ρ",
                                       "solve (s)"]
-    assert s["stages"]["rows"][1] == ["λ = 50", "50", "28", "Solve_Succeeded", "0.05", "2"]
+    assert s["stages"]["rows"][1] == ["λ = 50", "50", "28", "Solve_Succeeded", "+0.05", "2"]
+    assert s["energy_text"].endswith(" J") and s["specs_text"] == "2 of 2 specs hold"
+    assert s["objective"]["text"] == "minimise −ρ̃"
     assert all(e["name"] != "stages" for e in s["solver_extra"])
     assert s["smoothing_schedule"] == "10, 20, 50"
     assert {"name": "variables", "text": "4321"} in s["problem_size"]
@@ -233,10 +258,12 @@ def test_spec_rows(view):
     safe = rows["safe"]
     assert safe["robustness"] == 0.25 and safe["satisfied"] and safe["verdict"] == "satisfied"
     assert safe["tightest_time"] == 1.2 and safe["tightest_text"] == "1.2 s"
-    assert safe["binding_predicate"] == "uav1.pos.z <= 2.5"
+    # the monitor's label, and its readable form (outside the region, past its x = lo face)
+    assert safe["binding_predicate_raw"] == BEHIND
+    assert safe["binding_predicate"] == "uav1.pos outside operator.behind (x < lo)"
     assert safe["line"] == 13 and safe["anchor"] == "L13"
     assert safe["predicate_anchor"] == "L13"
-    assert safe["window_text"] == "[0, 2] s"
+    assert safe["window_text"] == "[0, 2] s" and safe["window_color"] == "#1f77b4"
     assert rows["reach"]["anchor"] == "L14" and rows["reach"]["window_text"] == "[1, 2] s"
 
 
@@ -250,7 +277,7 @@ def test_spec_line_falls_back_to_spans():
 def test_human_frame_box_corners_rotated_by_yaw():
     program, mission, sol = synthetic_case()
     boxes = {b["name"]: b for b in build_view(program, mission, sol)["scene"]["boxes"]}
-    vis = boxes["vis"]
+    vis = boxes["operator.vis"]
     assert vis["frame"] == "operator" and len(vis["corners"]) == 8
     # operator at (1, 2, 0), yaw 90°: local (x, y, z) -> world (1 - y, 2 + x, z)
     # local corner (1.0, 0.25, 1.2) -> world (0.75, 3.0, 1.2)
@@ -279,10 +306,11 @@ def test_region_colours(view):
     boxes = {b["name"]: b for b in view["scene"]["boxes"]}
     assert boxes["ws"]["wireframe"] and boxes["ws"]["role"] == "workspace"
     assert boxes["pillar"]["role"] == "nofly" and boxes["pillar"]["color"] == "#d62728"
-    assert boxes["behind"]["color"] == "#d62728"
-    assert boxes["vis"]["role"] == "visibility" and boxes["vis"]["color"] == "#1f77b4"
-    assert boxes["ho"]["role"] == "approach"
-    assert not boxes["ho"]["wireframe"]
+    assert boxes["operator.behind"]["color"] == "#d62728"
+    vis = boxes["operator.vis"]
+    assert vis["role"] == "visibility" and vis["color"] == "#1f77b4"
+    assert boxes["operator.ho"]["role"] == "approach"
+    assert not boxes["operator.ho"]["wireframe"]
     assert region_role("pr2", "region") == "approach"
     assert region_role("handover_zone", "region") == "approach"
     assert region_role("approach_left", "region") == "approach"
@@ -296,7 +324,17 @@ def test_region_colours(view):
     assert region_role("operator.visibility", "region", "operator") == "visibility"
     assert region_role("operator.ltb2", "region", "operator") == "approach"
     assert region_role("corridor", "region") == "region"
-    assert boxes["vis"]["label"] == "vis"
+    assert vis["label"] == "vis"
+    assert [r["label"] for r in view["scene"]["roles"]] == ["no-fly", "approach"]
+
+
+def test_regions_the_mission_never_mentions_are_hidden(view):
+    boxes = {b["name"]: b for b in view["scene"]["boxes"]}
+    # obstacles and the workspace always show; a free region only when a spec mentions it
+    assert boxes["ws"]["visible"] and boxes["pillar"]["visible"]
+    assert boxes["operator.behind"]["visible"] and boxes["operator.ho"]["visible"]
+    assert not boxes["operator.vis"]["visible"]
+    assert view["scene"]["hidden"] == ["operator.vis"]
 
 
 def test_trajectory_and_humans(view):
@@ -313,23 +351,79 @@ def test_trajectory_and_humans(view):
 def test_signal_plots_with_bounds(view):
     sig = view["signals"]
     plots = {p["id"]: p for p in sig["plots"]}
-    assert {"sig-position", "sig-speed", "sig-rotor", "sig-force", "sig-heading-1"} <= set(plots)
+    assert {"sig-position", "sig-speed", "sig-rotor", "sig-force", "sig-heading-1",
+            "sig-heading-error-1"} <= set(plots)
     assert "sig-distance" not in plots and "sig-payload" not in plots  # single drone, no payload
+    assert "sig-vel" not in plots  # per-axis limits: point masses only
     assert len(plots["sig-position"]["traces"]) == 3
-    assert [b["value"] for b in plots["sig-speed"]["bounds"]] == [0.0, 2.0]
+    # a zero lower speed bound says nothing: only Γ_vel is drawn
+    assert [(b["value"], b["text"]) for b in plots["sig-speed"]["bounds"]] == [
+        (2.0, "Γ_vel = 2 m/s")]
     rotor = plots["sig-rotor"]
     assert len(rotor["traces"]) == 6
     labels = {b["label"]: b["value"] for b in rotor["bounds"]}
     assert labels["Γ_pro min"] == 40.0 and labels["Γ_pro max"] == 80.0
-    assert labels["force max"] == pytest.approx(100.0)  # sqrt(11.5 / 11.5e-4)
+    assert labels["ξ max 11.5 N ≙"] == pytest.approx(100.0)  # sqrt(11.5 / 11.5e-4)
+    assert {b["text"] for b in rotor["bounds"]} >= {"Γ_pro max = 80 Hz", "ξ max 11.5 N ≙ 100 Hz"}
     assert [b["value"] for b in plots["sig-force"]["bounds"]] == [0.29, 11.5]
     heading = plots["sig-heading-1"]
-    assert heading["unit"] == "deg" and heading["band"]["name"].startswith("±γ = 30")
-    up, lo = np.array(heading["band"]["upper"]), np.array(heading["band"]["lower"])
-    assert np.allclose(up - lo, 60.0, atol=1e-2)
+    assert heading["unit"] == "deg" and heading["band"]["name"] == "course ± γ (30°)"
+    # the band is a closed polygon: course + γ forward in time, course − γ backward
+    xs, ys = heading["band"]["x"], heading["band"]["y"]
+    n = xs.index(None) // 2
+    assert xs[:n] == xs[n:2 * n][::-1]
+    assert np.allclose(np.array(ys[:n]) - np.array(ys[n:2 * n][::-1]), 60.0, atol=1e-2)
+    err = plots["sig-heading-error-1"]
+    assert [b["value"] for b in err["bounds"]] == [30.0, -30.0]
+    assert np.allclose(err["traces"][0]["y"][1:], np.degrees(0.2 * np.sin(3 * np.arange(1, 21)
+                                                                          * 0.1)), atol=1e-3)
     assert len(sig["t"]) == 21
     assert [w["spec"] for w in sig["windows"]] == ["safe", "reach"]
+    # safe's window is the whole plan: shading it would tint everything
+    assert plots["sig-position"]["windows"] == ["reach"]
     assert sig["markers"] == []
+    tl = sig["timeline"]["specs"]
+    assert [(s["name"], s["start"], s["end"], s["tightest"]) for s in tl] == [
+        ("safe", 0.0, 2.0, 1.2), ("reach", 1.0, 2.0, 1.5)]
+
+
+def test_bounds_span_the_window_of_the_spec_that_states_them():
+    program, mission, sol = synthetic_case()
+    comfort = Always(1.0, 2.0, And((
+        Pred(Bin("-", Const(2.0), Sig("uav1.speed")), "uav1.speed <= 2 m/s", span(14)),
+        Pred(Bin("-", Sig("uav1.rotor_speed.1"), Const(40.0)),
+             "uav1.rotor_speed in [40 Hz, 80 Hz] (lower)", span(14)))), span(14))
+    specs = {**mission.specs, "comfort": comfort}
+    mission = replace(mission, specs=specs)
+    sol.specs["comfort"] = SpecResult(0.3, 0.2, True, 1.5, "uav1.speed <= 2 m/s", 14)
+    sol.extra["windows"] = [*sol.extra["windows"], {"spec": "comfort", "start": 1.0, "end": 2.0}]
+    plots = {p["id"]: p for p in build_view(program, mission, sol)["signals"]["plots"]}
+    (speed,) = plots["sig-speed"]["bounds"]
+    assert (speed["x0"], speed["x1"]) == (1.0, 2.0)
+    rotor = {b["label"]: b for b in plots["sig-rotor"]["bounds"]}
+    assert (rotor["Γ_pro min"]["x0"], rotor["Γ_pro min"]["x1"]) == (1.0, 2.0)
+    assert rotor["ξ max 11.5 N ≙"]["x0"] is None  # actuator limits hold throughout
+    assert "comfort" in plots["sig-speed"]["windows"]
+    assert "comfort" not in plots["sig-position"]["windows"]
+
+
+def test_hovering_masks_the_direction_of_motion():
+    program, mission, sol = synthetic_case()
+    ch = dict(sol.channels)
+    for a in "xy":
+        ch[f"uav1.vel.{a}"] = np.where(sol.times < 0.5, 0.0, ch[f"uav1.vel.{a}"])
+    ch["uav1.course"] = np.arctan2(ch["uav1.vel.y"], ch["uav1.vel.x"])
+    hover = Pred(Bin("-", Const(0.1), Sig("uav1.horizontal_speed")),
+                 "uav1.horizontal_speed <= 0.1 m/s", span(14))
+    mission = replace(mission, requirement=And((mission.requirement, hover)))
+    plots = {p["id"]: p for p in build_view(program, mission,
+                                            replace(sol, channels=ch))["signals"]["plots"]}
+    err = plots["sig-heading-error-1"]
+    assert err["traces"][0]["y"][:5] == [None] * 5 and err["traces"][0]["y"][5] is not None
+    assert err["spans"] == [{"start": 0.0, "end": 0.4, "label": "hovering"}]
+    assert "0.1 m/s" in err["note"]
+    course = plots["sig-heading-1"]["traces"][1]
+    assert course["y"][:5] == [None] * 5
 
 
 def test_team_signals_distance_and_payload():
@@ -344,9 +438,63 @@ def test_team_signals_distance_and_payload():
     dist = plots["sig-distance"]
     assert dist["traces"][0]["name"] == "uav1–uav2"
     assert np.allclose(dist["traces"][0]["y"], 4.0)
-    assert dist["bounds"] == [{"value": 3.0, "label": "Γ_dis", "style": "limit"}]
+    assert [(b["value"], b["text"], b["x0"]) for b in dist["bounds"]] == [(3.0, "Γ_dis = 3 m",
+                                                                            None)]
     assert plots["sig-payload"]["traces"][0]["shape"] == "hv"
     assert len(view["scene"]["trajectories"]) == 2
+    assert plots["sig-position"]["traces"][3]["name"] == "uav2 x"
+
+
+def point_mass_team(n: int = 3) -> tuple[Program, Mission, Solution]:
+    """``n`` point masses abreast, no human, no risk, no comparison, no energy."""
+    program, mission, _ = synthetic_case()
+    names = tuple(f"uav{k + 1}" for k in range(n))
+    vehicles = {v: PointMass(v, (3.1, 3.1, 3.1), (3.1, 3.1, 3.1), (2.0 * k, -3.0, 0.5),
+                             capacity=2)
+                for k, v in enumerate(names)}
+    sep = Always(0.0, 2.0, Pred(Bin("-", Sig("d"), Const(3.0)),
+                                "dist(d.pos, e.pos) >= Gamma_dis", span(13)), span(13))
+    mission = replace(mission, vehicles=names, specs={"separation": sep}, requirement=sep,
+                      spec_spans={"separation": span(13)})
+    program = replace(program, vehicles=vehicles, missions={"demo": mission},
+                      scenario=replace(program.scenario, humans=(), regions=tuple(
+                          r for r in program.scenario.regions if r.box.frame is None)))
+    t = np.round(np.arange(21) * 0.1, 10)
+    ch = {}
+    for k, v in enumerate(names):
+        ch |= {f"{v}.pos.x": 3.5 * k + 0.5 * t, f"{v}.pos.y": -3.0 + t, f"{v}.pos.z": 0.5 + t,
+               f"{v}.vel.x": 0.5 + 0 * t, f"{v}.vel.y": 1.0 + 0 * t, f"{v}.vel.z": 1.0 + 0 * t,
+               f"{v}.acc.x": 0 * t, f"{v}.acc.y": 0 * t, f"{v}.acc.z": 0 * t,
+               f"{v}.speed": 1.5 + 0 * t, f"{v}.course": np.arctan2(1.0, 0.5) + 0 * t}
+    sol = Solution("demo", "violated", -0.5, -0.6,
+                   {"separation": SpecResult(-0.5, -0.6, False, 0.0,
+                                             "dist(d.pos, e.pos) >= Gamma_dis", 13)},
+                   0.0, t, ch, solver={"name": "ipopt", "iterations": 12,
+                                       "return_status": "Solve_Succeeded"},
+                   extra={"energy_profile": [0.0] * 21,
+                          "bounds": {"speed_axis": [3.1, 3.1, 3.1], "distance_min": 3.0},
+                          "windows": [{"spec": "separation", "start": 0.0, "end": 2.0}]})
+    return program, mission, sol
+
+
+def test_point_mass_team_without_risk_or_comparison():
+    view = build_view(*point_mass_team())
+    plots = {p["id"]: p for p in view["signals"]["plots"]}
+    assert {"sig-position", "sig-speed", "sig-vel", "sig-acc", "sig-distance"} <= set(plots)
+    assert not any(k.startswith(("sig-rotor", "sig-force", "sig-heading")) for k in plots)
+    assert [t["name"] for t in plots["sig-distance"]["traces"]] == [
+        "uav1–uav2", "uav1–uav3", "uav2–uav3"]
+    assert {b["text"] for b in plots["sig-vel"]["bounds"]} == {"v̄ = 3.1 m/s", "−v̄"}
+    assert len(plots["sig-vel"]["traces"]) == 9
+    e = view["energy"]
+    assert not e["modelled"] and not e["has_comparison"] and e["profiles"] == []
+    assert e["total_text"] == "—" and view["summary"]["energy_text"] == "—"
+    assert view["risk"] is None and view["scene"]["humans"] == []
+    assert view["banner"]["spec"]["binding_predicate"] == "dist(d.pos, e.pos) ≥ Gamma_dis"
+    assert view["signals"]["markers"] == [{"spec": "separation", "t": 0.0,
+                                           "label": "separation fails"}]
+    html = render_report(view)
+    assert "modelled for multirotors only" in html and 'id="energy-profile"' not in html
 
 
 def test_signals_derived_when_channels_missing():
@@ -365,12 +513,27 @@ def test_signals_derived_when_channels_missing():
 
 def test_energy_and_comparison(view):
     e = view["energy"]
-    assert e["has_profile"] and e["has_comparison"]
+    assert e["modelled"] and e["has_profile"] and e["has_comparison"]
     assert [c["label"] for c in e["columns"]] == ["this plan (w = 0)", f"w = 0 {NASTY}"]
     assert e["columns"][1]["peak_speed_text"] == "2.4 m/s"
     assert e["columns"][0]["peak_rotor_speed_text"].endswith("Hz")
+    assert e["columns"][0]["energy_text"].endswith(" J")
+    assert e["columns"][0]["delta_text"] == "—"
+    assert e["columns"][1]["delta_text"].endswith("(+30 %)")
     assert len(e["profiles"]) == 2 and len(e["profiles"][0]["y"]) == 21
-    assert e["cumulative"] is not None  # the profile is per sample: its sum is the energy
+    cum = e["profiles"][0]["cumulative"]
+    assert cum[-1] == pytest.approx(e["total"], rel=1e-4)  # per sample: sums to the energy
+
+
+def test_comparison_labelled_with_its_objective():
+    program, mission, sol = synthetic_case()
+    mission = replace(mission, objective=Objective(energy_weight=0.5),
+                      options={"compare": [("no_energy", Objective())]})
+    sol.extra["comparisons"] = [{**sol.extra["comparisons"][0], "label": "no_energy",
+                                 "peak_rotor_speed": math.nan}]
+    e = build_view(program, mission, sol)["energy"]
+    assert [c["label"] for c in e["columns"]] == ["this plan (w = 0.5)", "no_energy (w = 0)"]
+    assert e["columns"][1]["peak_rotor_speed_text"] == "—"  # NaN: not recorded
 
 
 def test_risk_present(view):
@@ -385,6 +548,43 @@ def test_risk_present(view):
     assert len(a["histogram"]["centers"]) == 5 and a["histogram"]["centers"][0] == -0.15
     assert b["driver"] == "reach" and b["histogram"] is None  # stlc.risk format: drivers
     assert b["specs"][0]["share_text"] == "95 %"
+    assert a["top_var_text"] == "+0.03" and b["top_beta"] == "0.7"
+    assert risk["top_beta"] == "max β"  # the cases' largest β differ
+
+
+def test_risk_histogram_from_samples(tmp_path):
+    program, mission, sol = synthetic_case()
+    rng = np.random.default_rng(0)
+    rho = rng.normal(0.1, 0.1, 15000)
+    view = build_view(program, mission, sol, {"σ² = 0.75/exact/requirement": rho})
+    b = view["risk"]["cases"][1]
+    h = b["histogram"]
+    assert sum(h["counts"]) == 15000 and MIN_BINS <= len(h["counts"]) <= MAX_BINS
+    assert min(h["centers"]) > rho.min() and max(h["centers"]) < rho.max()
+    assert b["var_lines"][0] == {"beta": "0.7", "value": -0.01, "cvar": -0.1,
+                                 "var_text": "−0.01", "cvar_text": "−0.1"}
+    # write_report finds risk_samples.npz next to the report (as compile writes it)
+    np.savez_compressed(tmp_path / "risk_samples.npz",
+                        **{"cases": np.array(["σ² = 0.75"]), "σ² = 0.75/exact/requirement": rho,
+                           "σ² = 0.75/param/operator.pos.x": rho})
+    assert set(load_samples(tmp_path / "risk_samples.npz")) == {"σ² = 0.75/exact/requirement"}
+    write_report(tmp_path / "report.html", program, mission, sol)
+    data = json.loads(data_block((tmp_path / "report.html").read_text()).replace("<\\/", "</"))
+    assert sum(data["risk"]["cases"][1]["histogram"]["counts"]) == 15000
+    assert load_samples(tmp_path / "missing.npz") is None
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    assert load_samples(tmp_path / "bad.npz") is None
+
+
+def test_risk_case_declaration_linked():
+    program, mission, sol = synthetic_case()
+    case = RiskCase("σ² = 0.25", (Normal(("operator.pos.x", "operator.pos.y", "operator.pos.z"),
+                                         (0.0, 0.0, 0.0),
+                                         ((0.25, 0, 0), (0, 0.25, 0), (0, 0, 0))),), span(12))
+    mission = replace(mission, risk=RiskConfig((case,)))
+    a = build_view(program, mission, sol)["risk"]["cases"][0]
+    assert a["distribution"] == "operator.pos ~ N((0, 0, 0), diag(0.25, 0.25, 0))"
+    assert a["anchor"] == "L12"
 
 
 def test_risk_absent():
@@ -426,6 +626,50 @@ def test_num_rounds_to_five_digits():
     assert num(1.23456789) == 1.2346
     assert num(123456.7) == 123460.0
     assert num(math.inf) is None and num(None) is None and num("x") is None
+
+
+@pytest.mark.parametrize("label, text", [
+    # box membership is six face predicates labelled with the source text; the normal form
+    # pushes the negation of `not in` onto a face: outside, past that face
+    ("not (uav1.pos not in operator.behind (y <= hi))", "uav1.pos outside operator.behind (y > hi)"),
+    ("not (uav1.pos in pole (x >= lo))", "uav1.pos outside pole (x < lo)"),
+    ("uav1.pos in operator.handover (x >= lo)", "uav1.pos in operator.handover (x ≥ lo)"),
+    ("uav1.rotor_speed in [40 Hz, 80 Hz] (lower)", "uav1.rotor_speed ≥ 40 Hz"),
+    ("not (uav1.rotor_speed in [40 Hz, 80 Hz] (upper))", "uav1.rotor_speed > 80 Hz"),
+    ("abs(angdiff(uav1.heading, uav1.course)) <= 30 deg",
+     "abs(angdiff(uav1.heading, uav1.course)) ≤ 30 deg"),
+    ("not (uav1.speed <= 0.4 m/s)", "uav1.speed > 0.4 m/s"),
+    ("not (min(a, b) >= 1 and c)", "min(a, b) < 1 and c"),
+    ("not (f(x))", "not (f(x))"),
+    ("", "—"),
+])
+def test_readable_predicate_labels(label, text):
+    assert readable(label) == text
+
+
+def test_predicate_line_ignores_negations():
+    f = formulas()["safe"]
+    assert predicate_line(f, BEHIND) == 13
+    assert predicate_line(f, "uav1.pos not in operator.behind (x >= lo)") == 13
+    assert predicate_line(f, "uav1.pos in elsewhere (x >= lo)") == 0
+
+
+def test_source_lines(view):
+    lines = view["source"]["lines"]
+    assert lines[0]["code"] == "" and lines[0]["comment"].startswith("# handover test mission")
+    l15 = lines[14]
+    assert l15["code"].strip() == "require safe and reach"
+    assert l15["comment"].startswith("# </script>")
+    assert "spec" in lines[12]["cls"] and "binding" in lines[12]["cls"]
+    assert "in-mission" in lines[10]["cls"] and lines[2]["cls"] == ""
+
+
+def test_spec_spanning_several_lines_is_highlighted():
+    program, mission, sol = synthetic_case()
+    mission = replace(mission, spec_spans={**mission.spec_spans,
+                                           "safe": Span(FILE, 13, 3, 14, 10)})
+    lines = build_view(program, mission, sol)["source"]["lines"]
+    assert "spec" in lines[12]["cls"] and "spec" in lines[13]["cls"]
 
 
 # --------------------------------------------------------------------------- rendering

@@ -17,6 +17,7 @@ to a ``Solution`` in mission-level names, re-evaluated by the exact monitor.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -215,6 +216,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg
     nlp = {"x": w, "p": p, "f": obj, "g": g}
     opts = dict(IPOPT_DEFAULTS)
+    opts.update(json.loads(os.environ.get("STLC_IPOPT", "{}")))
     opts["ipopt.max_iter"] = int(mission.options.get("max_iter", 1000))
     root_fn = ca.Function("root", [w, p], [lowered.root])
     progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)

@@ -5,6 +5,10 @@ The page is a jinja2 template (autoescape on, ``StrictUndefined``) over the plai
 (``<script type="application/json">`` with ``</`` written as ``<\\/``, so no mission text can
 close the script element); plotly's bundled ``plotly.min.js``, the stylesheet and the small
 script that builds the figures are inlined, so the file opens offline.
+
+``write_report`` also reads the risk pass's per-realisation samples when they lie next to
+the report (``risk_samples.npz``, written first by ``stlc.compile.write_outputs``), for the
+risk histograms; ``risk.json`` alone holds only their summary.
 """
 
 from __future__ import annotations
@@ -14,10 +18,13 @@ import json
 import os
 import re
 import tempfile
+import zipfile
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 
 import jinja2
+import numpy as np
 from markupsafe import Markup
 
 from stlc.model import Mission, Program
@@ -27,6 +34,8 @@ from .view import build_view
 
 #: the view sections the page script needs, written into the JSON data block
 DATA_KEYS = ("scene", "signals", "energy", "risk")
+#: the risk pass's samples, looked for next to the report
+SAMPLES_FILE = "risk_samples.npz"
 
 
 class ReportError(Exception):
@@ -84,11 +93,27 @@ def render_report(view: dict) -> str:
     )
 
 
+def load_samples(path: str | os.PathLike[str]) -> dict[str, np.ndarray] | None:
+    """The per-realisation exact robustness arrays of a ``risk_samples.npz`` (``None`` when
+    the file is missing or unreadable: the report then goes without histograms)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: np.asarray(z[k]) for k in z.files if "/exact/" in k}
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return None
+
+
 def write_report(path: str | os.PathLike[str], program: Program, mission: Mission,
-                 solution: Solution) -> int:
-    """Build, render and write the report atomically; returns the number of bytes written."""
-    data = render_report(build_view(program, mission, solution)).encode("utf-8")
+                 solution: Solution, risk_samples: Mapping[str, np.ndarray] | None = None
+                 ) -> int:
+    """Build, render and write the report atomically; returns the number of bytes written.
+
+    ``risk_samples`` defaults to the ``risk_samples.npz`` next to ``path``, if any.
+    """
     target = Path(path)
+    if risk_samples is None and solution.extra.get("risk"):
+        risk_samples = load_samples(target.parent / SAMPLES_FILE)
+    data = render_report(build_view(program, mission, solution, risk_samples)).encode("utf-8")
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:

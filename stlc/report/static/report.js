@@ -8,6 +8,7 @@
                size: 12, color: "#1d2330" };
   var PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                  "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
+  var LIMIT = "#c5221f", SOFT = "#e08a00", GRID = "#eef1f4";
   /* corner k of a box: x = hi iff bit 0, y iff bit 1, z iff bit 2 */
   var EDGES = [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7],
                [0, 4], [1, 5], [2, 6], [3, 7]];
@@ -23,12 +24,19 @@
     var n = parseInt(hex.slice(1), 16);
     return "rgba(" + ((n >> 16) & 255) + "," + ((n >> 8) & 255) + "," + (n & 255) + "," + a + ")";
   }
+  function extend(base, extra) {
+    for (var k in extra) { if (Object.prototype.hasOwnProperty.call(extra, k)) base[k] = extra[k]; }
+    return base;
+  }
   function baseLayout(extra) {
-    var l = { font: FONT, margin: { l: 58, r: 18, t: 36, b: 44 }, paper_bgcolor: "#fff",
-              plot_bgcolor: "#fff", hovermode: "x unified",
-              legend: { orientation: "h", y: -0.12, yanchor: "top", x: 0, font: { size: 11 } } };
-    for (var k in extra) { if (Object.prototype.hasOwnProperty.call(extra, k)) l[k] = extra[k]; }
-    return l;
+    return extend({ font: FONT, margin: { l: 58, r: 18, t: 36, b: 44 }, paper_bgcolor: "#fff",
+                    plot_bgcolor: "#fff", hovermode: "x unified",
+                    legend: { orientation: "h", y: -0.14, yanchor: "top", x: 0, font: { size: 11 } } },
+                  extra);
+  }
+  function title(text) { return { text: txt(text), x: 0.01, xanchor: "left", font: { size: 13 } }; }
+  function timeAxis(extra) {
+    return extend({ ticksuffix: " s", gridcolor: GRID, zeroline: false }, extra || {});
   }
   function draw(id, traces, layout) {
     var el = document.getElementById(id);
@@ -40,6 +48,7 @@
       console.error(e);
     }
   }
+  function tEnd(t) { return t.length ? t[t.length - 1] : 1; }
 
   /* ------------------------------------------------------------------ scene */
   function edgeTrace(b) {
@@ -50,6 +59,7 @@
     });
     return { type: "scatter3d", mode: "lines", x: x, y: y, z: z, name: txt(b.name),
              legendgroup: "box-" + b.name, showlegend: b.wireframe, hoverinfo: "name",
+             visible: b.visible ? true : "legendonly",
              line: { color: b.color, width: b.wireframe ? 1.5 : 3 } };
   }
   function meshTrace(b) {
@@ -57,8 +67,9 @@
              y: b.corners.map(function (c) { return c[1]; }),
              z: b.corners.map(function (c) { return c[2]; }),
              i: TRI_I, j: TRI_J, k: TRI_K, color: b.color, opacity: 0.22, flatshading: true,
-             name: txt(b.name) + " (" + b.role_label + ")", legendgroup: "box-" + b.name,
-             showlegend: true, hovertemplate: txt(b.name) + " · " + b.role_label + "<extra></extra>" };
+             name: txt(b.label), legendgroup: "box-" + b.name, showlegend: true,
+             visible: b.visible ? true : "legendonly",
+             hovertemplate: txt(b.name) + " · " + b.role_label + "<extra></extra>" };
   }
   function scene3d(s) {
     var traces = [];
@@ -67,34 +78,42 @@
       traces.push(edgeTrace(b));
     });
     s.humans.forEach(function (h) {
-      traces.push({ type: "scatter3d", mode: "markers+text", x: [h.pos[0]], y: [h.pos[1]], z: [h.pos[2]],
-                    text: [txt(h.name)], textposition: "top center", name: txt(h.name),
-                    marker: { size: 7, color: "#111", symbol: "diamond" }, legendgroup: "h-" + h.name });
-      traces.push({ type: "scatter3d", mode: "lines", x: [h.pos[0], h.facing[0]],
-                    y: [h.pos[1], h.facing[1]], z: [h.pos[2], h.facing[2]], showlegend: false,
-                    hoverinfo: "skip", line: { color: "#111", width: 5 }, legendgroup: "h-" + h.name });
+      var g = "h-" + h.name;
+      traces.push({ type: "scatter3d", mode: "lines", x: [h.pos[0], h.head[0]], y: [h.pos[1], h.head[1]],
+                    z: [h.pos[2], h.head[2]], name: txt(h.name), legendgroup: g,
+                    line: { color: "#111", width: 9 }, hovertemplate: txt(h.name) + "<extra></extra>" });
+      traces.push({ type: "scatter3d", mode: "markers+text", x: [h.head[0]], y: [h.head[1]], z: [h.head[2]],
+                    text: [txt(h.name)], textposition: "top center", showlegend: false, legendgroup: g,
+                    marker: { size: 6, color: "#111" }, hovertemplate: txt(h.name) + "<extra></extra>" });
+      traces.push({ type: "scatter3d", mode: "lines", x: [h.chest[0], h.facing_3d[0]],
+                    y: [h.chest[1], h.facing_3d[1]], z: [h.chest[2], h.facing_3d[2]], showlegend: false,
+                    hoverinfo: "skip", line: { color: "#111", width: 5 }, legendgroup: g });
     });
     s.trajectories.forEach(function (tr, n) {
-      /* no legend entry: plotly cannot draw a legend symbol for a colour-array line */
       traces.push({ type: "scatter3d", mode: "lines+markers", x: tr.x, y: tr.y, z: tr.z,
-                    name: txt(tr.vehicle), customdata: tr.t, showlegend: false,
+                    name: txt(tr.vehicle), customdata: tr.t, showlegend: true, legendgroup: "v-" + tr.vehicle,
                     line: { color: tr.t, colorscale: "Viridis", width: 6 },
                     marker: { size: 2.5, color: tr.t, colorscale: "Viridis", showscale: n === 0,
-                              colorbar: { title: { text: "t (s)" }, thickness: 12, len: 0.6 } },
+                              colorbar: { title: { text: "t (s)", side: "top" }, orientation: "h",
+                                          thickness: 10, len: 0.45, x: 0.02, xanchor: "left", y: 0.0,
+                                          yanchor: "top" } },
                     hovertemplate: txt(tr.vehicle) + "<br>t = %{customdata} s<br>(%{x}, %{y}, %{z})<extra></extra>" });
       traces.push({ type: "scatter3d", mode: "markers+text", x: [tr.x[0]], y: [tr.y[0]], z: [tr.z[0]],
                     name: txt(tr.vehicle) + " start", showlegend: false, text: [txt(tr.vehicle)],
-                    textposition: "bottom center", hovertemplate: txt(tr.vehicle) + " start<extra></extra>",
+                    legendgroup: "v-" + tr.vehicle, textposition: "bottom center",
+                    hovertemplate: txt(tr.vehicle) + " start<extra></extra>",
                     marker: { size: 5, color: "#fff", line: { color: "#111", width: 2 }, symbol: "circle" } });
     });
     var ax = function (t) { return { title: { text: t }, backgroundcolor: "#f7f9fb", showbackground: true,
                                      gridcolor: "#dde2e8", zerolinecolor: "#b8c0cc" }; };
     draw("scene-3d", traces, baseLayout({
-      title: { text: "3D view", x: 0.02, font: { size: 13 } }, hovermode: "closest",
-      margin: { l: 0, r: 0, t: 32, b: 0 },
-      legend: { orientation: "h", x: 0, y: 0, yanchor: "top", font: { size: 11 } },
-      scene: { aspectmode: "data", xaxis: ax("x (m)"), yaxis: ax("y (m)"), zaxis: ax("z (m)"),
-               camera: { eye: { x: -1.45, y: -1.75, z: 1.2 }, center: { x: 0, y: 0, z: -0.1 } } } }));
+      title: title("3D view"), hovermode: "closest",
+      margin: { l: 0, r: 0, t: 32, b: 48 },
+      legend: { orientation: "v", x: 1, xanchor: "right", y: 1, yanchor: "top", font: { size: 11 },
+                bgcolor: "rgba(255,255,255,0.8)", bordercolor: "#dde2e8", borderwidth: 1 },
+      scene: { aspectmode: "data", domain: { x: [0, 0.86], y: [0, 1] },
+               xaxis: ax("x (m)"), yaxis: ax("y (m)"), zaxis: ax("z (m)"),
+               camera: { eye: { x: -1.25, y: -1.55, z: 1.0 }, center: { x: 0, y: 0, z: -0.15 } } } }));
   }
   function centroid(ring, axis) {
     var pts = ring.slice(0, -1), sum = 0;
@@ -103,10 +122,10 @@
   }
   /* region names for the top view, largest regions first, skipping any label that would
      overlap one already placed (plotly does not avoid label collisions) */
-  function topLabels(s) {
+  function topLabels(boxes, s) {
     var dx = 0.07 * Math.max(1e-9, s.extent.hi[0] - s.extent.lo[0]);
     var dy = 0.035 * Math.max(1e-9, s.extent.hi[1] - s.extent.lo[1]);
-    var cands = s.boxes.filter(function (b) { return !b.wireframe && b.hull_xy.length > 2; })
+    var cands = boxes.filter(function (b) { return !b.wireframe && b.hull_xy.length > 2; })
       .map(function (b) {
         var xs = b.hull_xy.map(function (p) { return p[0]; }), ys = b.hull_xy.map(function (p) { return p[1]; });
         var area = (Math.max.apply(null, xs) - Math.min.apply(null, xs)) *
@@ -123,7 +142,8 @@
   }
   function sceneTop(s) {
     var traces = [];
-    s.boxes.forEach(function (b) {
+    var boxes = s.boxes.filter(function (b) { return b.visible; });
+    boxes.forEach(function (b) {
       traces.push({ type: "scatter", mode: "lines", x: b.hull_xy.map(function (p) { return p[0]; }),
                     y: b.hull_xy.map(function (p) { return p[1]; }), name: txt(b.name),
                     fill: b.wireframe ? "none" : "toself", fillcolor: rgba(b.color, 0.18),
@@ -131,7 +151,7 @@
                     hoveron: "fills+points", hovertemplate: txt(b.name) + " · " + b.role_label + "<extra></extra>",
                     showlegend: false });
     });
-    var labels = topLabels(s);
+    var labels = topLabels(boxes, s);
     traces.push({ type: "scatter", mode: "text", showlegend: false, hoverinfo: "skip",
                   x: labels.map(function (l) { return l.x; }), y: labels.map(function (l) { return l.y; }),
                   text: labels.map(function (l) { return txt(l.box.label); }),
@@ -152,101 +172,139 @@
                     hoverinfo: "skip", marker: { size: 9, color: "#fff", line: { color: "#111", width: 2 } } });
     });
     draw("scene-top", traces, baseLayout({
-      title: { text: "Top view (x–y)", x: 0.02, font: { size: 13 } }, hovermode: "closest",
-      xaxis: { title: { text: "x (m)" }, zeroline: false, gridcolor: "#eef1f4" },
-      yaxis: { title: { text: "y (m)" }, zeroline: false, gridcolor: "#eef1f4", scaleanchor: "x", scaleratio: 1 } }));
+      title: title("Top view (x–y)"), hovermode: "closest",
+      xaxis: { title: { text: "x (m)" }, zeroline: false, gridcolor: GRID },
+      yaxis: { title: { text: "y (m)" }, zeroline: false, gridcolor: GRID, scaleanchor: "x", scaleratio: 1 } }));
   }
 
   /* ------------------------------------------------------------------ signals */
-  function timeDecorations(sig, yRange) {
-    var shapes = [], notes = [];
-    sig.windows.forEach(function (w, k) {
+  function timeline(sig) {
+    var tl = sig.timeline, traces = [], names = tl.specs.map(function (s) { return txt(s.name); });
+    tl.specs.forEach(function (s, k) {
+      if (s.start !== null && s.end !== null) {
+        traces.push({ type: "scatter", mode: "lines", x: [s.start, s.end], y: [names[k], names[k]],
+                      line: { color: rgba(s.color, 0.55), width: 14 }, showlegend: false,
+                      hovertemplate: txt(s.name) + " window [" + s.start + ", " + s.end + "] s<extra></extra>" });
+      }
+    });
+    var pts = tl.specs.filter(function (s) { return s.tightest !== null; });
+    traces.push({ type: "scatter", mode: "markers", x: pts.map(function (s) { return s.tightest; }),
+                  y: pts.map(function (s) { return txt(s.name); }), showlegend: false,
+                  customdata: pts.map(function (s) { return [s.robustness_text, txt(s.predicate)]; }),
+                  marker: { symbol: "diamond", size: 11, line: { color: "#fff", width: 1 },
+                            color: pts.map(function (s) { return s.satisfied ? "#1e8e3e" : LIMIT; }) },
+                  hovertemplate: "%{y}: ρ = %{customdata[0]} at t = %{x} s<br>%{customdata[1]}<extra></extra>" });
+    var span = tl.horizon || tEnd(sig.t);
+    var el = document.getElementById("sig-timeline");
+    if (el) el.style.height = (64 + 30 * names.length) + "px";
+    draw("sig-timeline", traces, baseLayout({
+      title: title("Requirement windows and tightest times (◆)"), hovermode: "closest",
+      margin: { l: 110, r: 18, t: 32, b: 28 },
+      xaxis: timeAxis({ range: [-0.015 * span, 1.015 * span] }),
+      yaxis: { type: "category", range: [names.length - 0.5, -0.5], gridcolor: GRID,
+               categoryorder: "array", categoryarray: names } }));
+  }
+  function timeDecorations(sig, specs) {
+    var shapes = [], notes = [], k = 0;
+    sig.windows.forEach(function (w) {
+      if (specs.indexOf(w.spec) < 0) return;
       shapes.push({ type: "rect", xref: "x", yref: "paper", x0: w.start, x1: w.end, y0: 0, y1: 1,
-                    fillcolor: w.color, opacity: 0.07, line: { width: 0 }, layer: "below" });
-      notes.push({ xref: "x", yref: "paper", x: w.start, y: 1 - 0.085 * k, xanchor: "left", yanchor: "top",
+                    fillcolor: w.color, opacity: 0.08, line: { width: 0 }, layer: "below" });
+      notes.push({ xref: "x", yref: "paper", x: w.start, y: 1 - 0.09 * k, xanchor: "left", yanchor: "top",
                    text: txt(w.spec), showarrow: false, font: { size: 10, color: w.color } });
+      k += 1;
     });
     sig.markers.forEach(function (m) {
       shapes.push({ type: "line", xref: "x", yref: "paper", x0: m.t, x1: m.t, y0: 0, y1: 1,
-                    line: { color: "#c5221f", width: 1.5, dash: "dot" } });
+                    line: { color: LIMIT, width: 1.5, dash: "dot" } });
       notes.push({ xref: "x", yref: "paper", x: m.t, y: 0.5, xanchor: "left", yanchor: "middle",
                    text: txt(m.label), showarrow: false, bgcolor: "rgba(255,255,255,0.75)",
-                   font: { size: 10, color: "#c5221f" } });
+                   font: { size: 10, color: LIMIT } });
     });
     return { shapes: shapes, annotations: notes };
   }
   function signalPlot(sig, p) {
-    var traces = [];
+    var traces = [], t0 = sig.t[0], t1 = tEnd(sig.t);
     if (p.band) {
-      traces.push({ type: "scatter", mode: "lines", x: sig.t, y: p.band.lower, line: { width: 0 },
-                    showlegend: false, hoverinfo: "skip" });
-      traces.push({ type: "scatter", mode: "lines", x: sig.t, y: p.band.upper, line: { width: 0 },
-                    fill: "tonexty", fillcolor: "rgba(90,90,90,0.14)", name: txt(p.band.name), hoverinfo: "skip" });
+      traces.push({ type: "scatter", mode: "lines", x: p.band.x, y: p.band.y, fill: "toself",
+                    fillcolor: "rgba(90,90,90,0.14)", line: { width: 0 }, name: txt(p.band.name),
+                    hoverinfo: "skip" });
     }
     p.traces.forEach(function (tr, k) {
-      traces.push({ type: "scatter", mode: "lines", x: sig.t, y: tr.y, name: txt(tr.name),
+      traces.push({ type: "scatter", mode: "lines", x: tr.x || sig.t, y: tr.y, name: txt(tr.name),
                     line: { color: PALETTE[k % PALETTE.length], width: 1.8, dash: tr.dash || "solid",
                             shape: tr.shape || "linear" } });
     });
-    var deco = timeDecorations(sig);
+    var deco = timeDecorations(sig, p.windows);
+    p.spans.forEach(function (s) {
+      deco.shapes.push({ type: "rect", xref: "x", yref: "paper", x0: s.start, x1: s.end, y0: 0, y1: 1,
+                         fillcolor: "#9aa5b1", opacity: 0.13, line: { width: 0 }, layer: "below" });
+    });
     p.bounds.forEach(function (b) {
-      var soft = b.style === "soft";
+      var soft = b.style === "soft", color = soft ? SOFT : LIMIT;
+      var x0 = b.x0 === null ? t0 : b.x0, x1 = b.x1 === null ? t1 : b.x1;
       /* an invisible trace at the bound keeps it inside the autoscaled range */
-      traces.push({ type: "scatter", mode: "lines", x: [sig.t[0], sig.t[sig.t.length - 1]], y: [b.value, b.value],
+      traces.push({ type: "scatter", mode: "lines", x: [x0, x1], y: [b.value, b.value],
                     showlegend: false, hoverinfo: "skip", line: { width: 0 } });
-      deco.shapes.push({ type: "line", xref: "paper", yref: "y", x0: 0, x1: 1, y0: b.value, y1: b.value,
-                         line: { color: soft ? "#e08a00" : "#c5221f", width: 1.4, dash: soft ? "dot" : "dash" } });
-      deco.annotations.push({ xref: "paper", yref: "y", x: 1, y: b.value, xanchor: "right", yanchor: "bottom",
-                              text: txt(b.label) + " = " + b.value, showarrow: false,
-                              font: { size: 10, color: soft ? "#b36b00" : "#c5221f" } });
+      deco.shapes.push({ type: "line", xref: "x", yref: "y", x0: x0, x1: x1, y0: b.value, y1: b.value,
+                         line: { color: color, width: 1.5, dash: soft ? "dot" : "dash" } });
+      deco.annotations.push({ xref: "x", yref: "y", x: x1, y: b.value, xanchor: "right", yanchor: "bottom",
+                              text: txt(b.text), showarrow: false,
+                              font: { size: 10, color: soft ? "#b36b00" : LIMIT } });
     });
     draw(p.id, traces, baseLayout({
-      title: { text: txt(p.title), x: 0.02, font: { size: 13 } },
-      xaxis: { ticksuffix: " s", gridcolor: "#eef1f4", zeroline: false },
-      yaxis: { title: { text: p.unit }, gridcolor: "#eef1f4", zeroline: false },
+      title: title(p.title), xaxis: timeAxis({ range: [t0, t1] }),
+      yaxis: { title: { text: p.unit }, gridcolor: GRID, zeroline: false },
       shapes: deco.shapes, annotations: deco.annotations }));
   }
 
   /* ------------------------------------------------------------------ energy, risk */
   function energyPlot(e) {
-    var traces = e.profiles.map(function (p, k) {
-      return { type: "scatter", mode: "lines", x: p.x, y: p.y, name: txt(p.name),
-               line: { color: PALETTE[k % PALETTE.length], width: 2 } };
+    var traces = [];
+    e.profiles.forEach(function (p, k) {
+      var c = PALETTE[k % PALETTE.length];
+      traces.push({ type: "scatter", mode: "lines", x: p.x, y: p.y, name: txt(p.name) + " per sample",
+                    line: { color: c, width: 2 } });
+      traces.push({ type: "scatter", mode: "lines", x: p.x, y: p.cumulative, yaxis: "y2",
+                    name: txt(p.name) + " cumulative", line: { color: c, width: 1.3, dash: "dash" } });
     });
-    var layout = { title: { text: "Energy per sample", x: 0.02, font: { size: 13 } },
-                   xaxis: { ticksuffix: " s", gridcolor: "#eef1f4" },
-                   yaxis: { title: { text: "energy" }, gridcolor: "#eef1f4", zeroline: false } };
-    if (e.cumulative && e.profiles.length === 1) {
-      traces.push({ type: "scatter", mode: "lines", x: e.cumulative.x, y: e.cumulative.y, yaxis: "y2",
-                    name: "cumulative", line: { color: "#555", width: 1.5, dash: "dash" } });
-      layout.yaxis2 = { title: { text: "cumulative" }, overlaying: "y", side: "right", showgrid: false };
-      layout.margin = { l: 58, r: 64, t: 36, b: 44 };
-    }
-    var sig = data.signals;
-    var deco = timeDecorations({ windows: sig.windows, markers: [] });
-    layout.shapes = deco.shapes;
-    layout.annotations = deco.annotations;
-    draw("energy-profile", traces, baseLayout(layout));
+    draw("energy-profile", traces, baseLayout({
+      title: title("Energy per sample (solid) and cumulative (dashed)"),
+      margin: { l: 58, r: 70, t: 36, b: 44 }, xaxis: timeAxis(),
+      yaxis: { title: { text: "J per sample" }, gridcolor: GRID, zeroline: false },
+      yaxis2: { title: { text: "cumulative (J)" }, overlaying: "y", side: "right", showgrid: false,
+                zeroline: false } }));
+  }
+  function vline(x, name, color, dash, group) {
+    return { type: "scatter", mode: "lines", x: [x, x], y: [0, 1], yaxis: "y2", name: name,
+             legendgroup: group, hovertemplate: name + "<extra></extra>",
+             line: { color: color, width: 1.6, dash: dash } };
   }
   function riskPlot(c) {
     var h = c.histogram;
     var colors = h.centers.map(function (x) { return x < 0 ? "#d62728" : "#1f77b4"; });
-    var shapes = [{ type: "line", xref: "x", yref: "paper", x0: 0, x1: 0, y0: 0, y1: 1,
-                    line: { color: "#111", width: 1.5 } }];
-    var notes = [];
+    var traces = [{ type: "bar", x: h.centers, y: h.counts, width: h.widths, name: "realisations",
+                    showlegend: false, marker: { color: colors, opacity: 0.8, line: { width: 0 } },
+                    hovertemplate: "ρ ≈ %{x}: %{y}<extra></extra>" }];
+    if (c.nominal !== null) traces.push(vline(c.nominal, "nominal ρ = " + c.nominal_text, "#111", "solid", "n"));
+    /* pad the range so that lines at the extremes (the nominal plan is often the best) show */
+    var xs = h.centers.concat([c.nominal]).concat(c.var_lines.map(function (v) { return v.cvar; }))
+      .filter(function (x) { return x !== null; });
+    var w = h.widths[0] || 0, lo = Math.min.apply(null, xs) - w, hi = Math.max.apply(null, xs) + w;
     c.var_lines.forEach(function (v, k) {
-      shapes.push({ type: "line", xref: "x", yref: "paper", x0: v.value, x1: v.value, y0: 0, y1: 1,
-                    line: { color: PALETTE[(k + 1) % PALETTE.length], width: 1.4, dash: "dash" } });
-      notes.push({ xref: "x", yref: "paper", x: v.value, y: 1 - 0.09 * k, xanchor: "left", yanchor: "top",
-                   showarrow: false, text: "VaR " + v.beta, font: { size: 10, color: PALETTE[(k + 1) % PALETTE.length] } });
+      var col = PALETTE[(k + 1) % PALETTE.length];
+      traces.push(vline(v.value, "VaR " + v.beta + " = " + v.var_text, col, "dash", "b" + k));
+      if (v.cvar !== null) traces.push(vline(v.cvar, "CVaR " + v.beta + " = " + v.cvar_text, col, "dot", "b" + k));
     });
-    draw(c.id, [{ type: "bar", x: h.centers, y: h.counts, width: h.widths, name: "realisations",
-                  marker: { color: colors, line: { width: 0 } }, hovertemplate: "ρ ≈ %{x}: %{y}<extra></extra>" }],
-         baseLayout({ title: { text: "Robustness over realisations", x: 0.02, font: { size: 13 } },
-                      hovermode: "closest", bargap: 0, showlegend: false,
-                      xaxis: { title: { text: "exact robustness ρ" }, gridcolor: "#eef1f4" },
-                      yaxis: { title: { text: "count" }, gridcolor: "#eef1f4" },
-                      shapes: shapes, annotations: notes }));
+    draw(c.id, traces, baseLayout({
+      title: title("Exact robustness over " + c.K + " realisations (red: violated)"),
+      hovermode: "closest", bargap: 0,
+      margin: { l: 58, r: 10, t: 36, b: 44 },
+      legend: { orientation: "v", x: 1.02, xanchor: "left", y: 1, yanchor: "top", font: { size: 10 } },
+      xaxis: { title: { text: "exact robustness ρ" }, gridcolor: GRID, zeroline: true, range: [lo, hi],
+               zerolinecolor: "#111", zerolinewidth: 1.5 },
+      yaxis: { title: { text: "count" }, gridcolor: GRID },
+      yaxis2: { overlaying: "y", range: [0, 1], visible: false, fixedrange: true } }));
   }
 
   if (typeof Plotly === "undefined") {
@@ -255,6 +313,7 @@
   }
   scene3d(data.scene);
   sceneTop(data.scene);
+  if (data.signals.timeline) timeline(data.signals);
   data.signals.plots.forEach(function (p) { signalPlot(data.signals, p); });
   if (data.energy.profiles.length) energyPlot(data.energy);
   if (data.risk) data.risk.cases.forEach(function (c) { if (c.histogram) riskPlot(c); });

@@ -1,0 +1,175 @@
+"""Readable predicate labels, and what the report learns from a mission's predicates.
+
+The monitor names a binding predicate by its source text plus the face it binds on, with
+the negations of the normal form spelled out: ``not (uav1.pos not in operator.behind (y <=
+hi))`` is the face constraint of being *outside* ``operator.behind`` past its ``y = hi``
+face: the predicate under the ``not`` is the membership face ``y <= hi`` (box membership is
+six face predicates, each labelled with the source text ``uav1.pos not in operator.behind``),
+and the normal form pushed the negation of ``not in`` down onto it.  ``readable`` turns such labels into ``uav1.pos outside operator.behind (y > hi)``
+without changing what they mean; the raw label stays in the view for the tooltip.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from stlc import ir
+
+#: ``<point> in|not in <region> (<axis> <=|>= lo|hi)``: a face of a box membership
+_FACE = re.compile(r"^(?P<p>.+?) (?P<neg>not in|in) (?P<r>[^\s()\[\]]+) "
+                   r"\((?P<axis>[xyz]) (?P<op><=|>=) (?P<side>lo|hi)\)$", re.S)
+#: ``<expr> in|not in [<lo>, <hi>] (lower|upper)``: one side of a range
+_RANGE = re.compile(r"^(?P<x>.+?) (?P<neg>not in|in) \[(?P<body>.*)\] \((?P<side>lower|upper)\)$",
+                    re.S)
+_FLIP = {"<=": ">", ">=": "<", "<": ">=", ">": "<=", "==": "!=", "!=": "=="}
+_PRETTY = (("<=", "≤"), (">=", "≥"), ("!=", "≠"))
+
+
+def _balanced(s: str) -> bool:
+    depth = 0
+    for ch in s:
+        depth += (ch == "(") - (ch == ")")
+        if depth < 0:
+            return False
+    return depth == 0
+
+
+def _strip_not(label: str) -> tuple[str, int]:
+    """Remove enclosing ``not ( … )`` layers; returns (inner text, number removed)."""
+    s, n = label.strip(), 0
+    while s.startswith("not (") and s.endswith(")") and _balanced(s[5:-1]):
+        s, n = s[5:-1].strip(), n + 1
+    return s, n
+
+
+def _top_level(s: str, sep: str) -> list[int]:
+    """Offsets of ``sep`` in ``s`` outside any brackets."""
+    out, depth = [], 0
+    for i, ch in enumerate(s):
+        if ch in "([":
+            depth += 1
+        elif ch in ")]":
+            depth -= 1
+        elif depth == 0 and s.startswith(sep, i):
+            out.append(i)
+    return out
+
+
+def _pretty(s: str) -> str:
+    for a, b in _PRETTY:
+        s = s.replace(f" {a} ", f" {b} ")
+    return s
+
+
+def readable(label: str) -> str:
+    """A friendlier rendering of a monitor predicate label (same meaning)."""
+    if not label:
+        return "—"
+    core, nots = _strip_not(label)
+    negated = nots % 2 == 1
+    m = _FACE.match(core)
+    if m:
+        inside = not negated  # the face predicate is membership; `not in` is source text
+        op = m["op"] if inside else _FLIP[m["op"]]
+        where = "in" if inside else "outside"
+        return _pretty(f"{m['p']} {where} {m['r']} ({m['axis']} {op} {m['side']})")
+    m = _RANGE.match(core)
+    if m:
+        cuts = _top_level(m["body"], ",")
+        if len(cuts) == 1:
+            lo, hi = m["body"][:cuts[0]].strip(), m["body"][cuts[0] + 1:].strip()
+            inside = not negated
+            lower = m["side"] == "lower"
+            op = (">=" if lower else "<=") if inside else ("<" if lower else ">")
+            return _pretty(f"{m['x']} {op} {lo if lower else hi}")
+    if negated:
+        ops = [(i, op) for op in ("<=", ">=", "==", "!=", "<", ">")
+               for i in _top_level(core, f" {op} ")]
+        if len(ops) == 1:
+            i, op = ops[0]
+            core = f"{core[:i]} {_FLIP[op]} {core[i + len(op) + 2:]}"
+        else:
+            return _pretty(f"not ({core})")
+    return _pretty(core)
+
+
+def predicate_line(formula: ir.Formula | None, label: str) -> int:
+    """Source line of the predicate of ``formula`` whose label is ``label`` (0 if unknown)."""
+    if formula is None or not label:
+        return 0
+    core, _ = _strip_not(label)
+    for p in ir.predicates(formula):
+        if _strip_not(p.label)[0] == core and p.span.known:
+            return p.span.line
+    return 0
+
+
+def const_side(e: ir.Expr) -> float | None:
+    """``c - x`` or ``x - c`` → c (the bound of a simple predicate)."""
+    if isinstance(e, ir.Bin) and e.op == "-":
+        for side in (e.left, e.right):
+            if isinstance(side, ir.Const):
+                return abs(float(side.value))
+    return None
+
+
+#: bound kinds of ``Solution.extra["bounds"]`` → how their predicates are labelled
+BOUND_PATTERNS = {
+    "speed": re.compile(r"\.speed <="),
+    "rotor_speed": re.compile(r"\.rotor_speed (not )?in"),
+    "heading_margin_deg": re.compile(r"angdiff"),
+    "distance_min": re.compile(r"(norm|dist)\(.*>="),
+}
+
+
+def stated_bounds(formula: ir.Formula) -> dict:
+    """The bounds a requirement states, in the form of ``Solution.extra["bounds"]``: ``speed``
+    and ``rotor_speed`` as [lo, hi], ``heading_margin_deg``, ``distance_min`` (for plans
+    whose ``extra`` lacks some of them)."""
+    out: dict = {}
+    for p in ir.predicates(ir.normalize(formula)):
+        lab, c = _strip_not(p.label)[0], const_side(p.expr)
+        if c is None:
+            continue
+        if BOUND_PATTERNS["speed"].search(lab):
+            out["speed"] = [0.0, c]
+        elif BOUND_PATTERNS["rotor_speed"].search(lab):
+            lo, hi = out.get("rotor_speed", [None, None])
+            out["rotor_speed"] = [c, hi] if lab.endswith("(lower)") else [lo, c]
+        elif BOUND_PATTERNS["heading_margin_deg"].search(lab) and "<=" in lab:
+            out["heading_margin_deg"] = round(math.degrees(c), 6)
+        elif BOUND_PATTERNS["distance_min"].search(lab):
+            out["distance_min"] = c
+    return out
+
+
+def bound_specs(specs: dict[str, ir.Formula]) -> dict[str, list[str]]:
+    """For each bound kind, the named specs that state it (from their predicate labels)."""
+    out: dict[str, list[str]] = {}
+    for name, f in specs.items():
+        labels = {_strip_not(p.label)[0] for p in ir.predicates(f)}
+        for kind, pat in BOUND_PATTERNS.items():
+            if any(pat.search(lab) for lab in labels):
+                out.setdefault(kind, []).append(name)
+    return out
+
+
+def hover_speed(formula: ir.Formula | None) -> float | None:
+    """The ``horizontal_speed <= c`` of a heading requirement (below it the vehicle counts
+    as hovering and its direction of motion is undefined), if the mission states one."""
+    if formula is None:
+        return None
+    for p in ir.predicates(formula):
+        if ".horizontal_speed <=" in _strip_not(p.label)[0]:
+            c = const_side(p.expr)
+            if c is not None:
+                return c
+    return None
+
+
+def mentioned(formulas: list[ir.Formula], names: list[str]) -> set[str]:
+    """The names (regions, …) that appear as whole words in some predicate label."""
+    text = "\n".join(p.label for f in formulas for p in ir.predicates(f))
+    return {n for n in names
+            if re.search(rf"(?<![\w.]){re.escape(n)}(?![\w])", text)}
