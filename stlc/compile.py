@@ -185,7 +185,7 @@ def _bounds(program: model.Program, mission: model.Mission) -> dict:
             out["rotor_speed"] = [const, hi] if "(lower)" in lab else [lo, const]
         elif "angdiff" in lab and "<=" in lab and "deg" in lab:
             out["heading_margin_deg"] = round(float(np.degrees(const)), 6)
-        elif "norm(" in lab and ">=" in lab:
+        elif ("norm(" in lab or "dist(" in lab) and ">=" in lab:
             out["distance_min"] = const
     return out
 
@@ -223,6 +223,7 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
     parent = os.path.dirname(os.path.abspath(outdir)) or "."
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=".stlc-", dir=parent)
+    os.chmod(tmp, 0o755)  # mkdtemp makes it private; outputs are ordinary files to share
     try:
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
             fh.write(sol.to_json())

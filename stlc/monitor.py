@@ -492,6 +492,63 @@ def _pad(x: np.ndarray, length: int, fill: float, front: int = 0) -> np.ndarray:
     return np.concatenate([x, np.full(x.shape[:-1] + (length - m,), fill)], axis=-1)
 
 
+
+class _Sep:
+    """A signal expression kept as ``t + p``: a time-only part ``t`` (shape (n,)) plus a
+    parameter-only part ``p`` (shape (K, 1)).  Sums, differences and scalings of such values
+    stay separable at the cost of (n,) and (K, 1) operations — e.g. a point in a sampled
+    human's frame, ``Rᵀ (p(t) − pos)`` with a fixed attitude — and only a predicate pays one
+    (K, n) addition (``full``)."""
+
+    __slots__ = ("t", "p")
+
+    def __init__(self, t, p):
+        self.t, self.p = t, p
+
+    def full(self) -> np.ndarray:
+        return np.add(self.t, self.p)
+
+
+def _parts(v, timed: bool):
+    """``(t, p)`` of a value that is separable, else ``None``."""
+    if isinstance(v, _Sep):
+        return v.t, v.p
+    if not timed:
+        return 0.0, v
+    if np.ndim(v) <= 1:
+        return v, 0.0
+    return None
+
+
+def _separable(x, args: list, timed: list):
+    """The value of ``+ - * /`` or negation on separable operands as a ``_Sep`` (or a plain
+    time-only array when no parameter is left), or ``None`` when it is not separable."""
+    if isinstance(x, Neg):
+        tp = _parts(args[0], timed[0])
+        return None if tp is None else _sep(np.negative(tp[0]), np.negative(tp[1]))
+    if not isinstance(x, Bin) or x.op not in "+-*/":
+        return None
+    a, b = (_parts(v, t) for v, t in zip(args, timed))
+    if a is None or b is None:
+        return None
+    if x.op in "+-":
+        op = np.add if x.op == "+" else np.subtract
+        return _sep(op(a[0], b[0]), op(a[1], b[1]))
+    # a product or quotient is separable only with a plain number (not a parameter)
+    if x.op == "*" and not timed[0] and isinstance(args[0], float):
+        return _sep(args[0] * b[0], args[0] * b[1])
+    if not timed[1] and isinstance(args[1], float):
+        op = np.multiply if x.op == "*" else np.divide
+        return _sep(op(a[0], args[1]), op(a[1], args[1]))
+    return None
+
+
+def _sep(t, p):
+    if isinstance(p, float):
+        return np.add(t, p) if p != 0.0 else np.asarray(t, dtype=float)
+    return _Sep(t, p)
+
+
 class Demand:
     """Robustness at sample 0 of several NNF formulas on one trace (a ``Plan``) in one
     evaluation: a node shared by several formulas (a predicate, a human-frame coordinate, a
@@ -499,16 +556,21 @@ class Demand:
     parents need.  Same semantics as ``Evaluator`` (tests check it); parameters given as
     arrays of shape (K,) give values of shape (K,).
 
-    ``exprs`` (expression values on their hull, by node number) may be shared with another
-    evaluator on the same plan, trace and parameters (``stlc.smooth.SmoothDemand`` reuses
-    the predicate values of the exact pass)."""
+    ``finite[i]`` records that node i's values are all finite (no ``true``/``false``, no
+    empty window, finite predicates), which lets the smooth operators skip their guards.
+    ``share``, an evaluator on the same plan, trace and parameters, lends its expression
+    and predicate values and these flags (``stlc.smooth.SmoothDemand`` after the exact
+    pass)."""
 
     def __init__(self, plan: Plan, channels: Channels, params: Params | None = None, *,
-                 exprs: dict | None = None):
+                 share: Demand | None = None):
+        if share is not None and share.plan is not plan:
+            raise ValueError("share must be an evaluator on the same plan")
         self.plan, self.n = plan, plan.n
         self.channels, self.params = channels, {} if params is None else params
         self.vals: dict[int, np.ndarray] = {}
-        self.exprs: dict = {} if exprs is None else exprs
+        self.exprs: dict = {} if share is None else share.exprs
+        self.finite: dict[int, bool] = {} if share is None else share.finite
 
     def values(self) -> list:
         """Values at sample 0 of the plan's formulas: floats, or arrays of shape (K,)."""
@@ -528,14 +590,16 @@ class Demand:
         return v[..., s - first:e - first + 1]
 
     def expr(self, i: int, s: int, e: int):
-        """Value of expression node i at samples s … e; constants and parameters as they
-        are (a float, or shape (K, 1))."""
+        """Value of expression node i at samples s … e: constants and parameters as they are
+        (a float, or shape (K, 1)); a signal expression as an array, or as a ``_Sep``."""
         v = self.exprs.get(i)
         first, last = self.plan.need[i]
         if v is None:
             v = self.exprs[i] = self._expr_rule(i, first, last)
-        if not self.plan.timed[i]:
+        if not self.plan.timed[i] or (s == first and e == last):
             return v
+        if isinstance(v, _Sep):
+            return _Sep(v.t[s - first:e - first + 1], v.p)
         return v[..., s - first:e - first + 1]
 
     def _expr_rule(self, i: int, s: int, e: int):
@@ -551,6 +615,12 @@ class Demand:
                 if c.shape != (self.n,):
                     raise ValueError(f"signal `{name}` has shape {c.shape}, expected ({self.n},)")
                 return c[s:e + 1]
+        if self.plan.timed[i]:
+            v = _separable(x, args, [self.plan.timed[c] for c in kids])
+            if v is not None:
+                return v
+            args = [a.full() if isinstance(a, _Sep) else a for a in args]
+        match x:
             case Neg():
                 return np.negative(args[0])
             case Bin(op):
@@ -559,16 +629,21 @@ class Demand:
                 return _call(x, args)
         raise TypeError(f"not an expression node: {x!r}")
 
-    # ---- operators (``SmoothDemand`` overrides these three)
-    def conj(self, kids: list, is_and: bool) -> np.ndarray:
+    # ---- operators (``SmoothDemand`` overrides these three); ``finite``: every operand
+    # value is finite
+    def conj(self, kids: list, is_and: bool, finite: bool) -> np.ndarray:
         kids = sorted(kids, key=np.ndim)  # time-only operands first: smaller temporaries
         op = np.minimum if is_and else np.maximum
         out = kids[0]
         for k in kids[1:]:
-            out = op(out, k)
+            if out is not kids[0] and out.shape == np.broadcast_shapes(out.shape, k.shape):
+                op(out, k, out=out)  # a temporary of ours: in place
+            else:
+                out = op(out, k)
         return out
 
-    def window(self, x: np.ndarray, width: int, length: int, is_min: bool) -> np.ndarray:
+    def window(self, x: np.ndarray, width: int, length: int, is_min: bool,
+               finite: bool) -> np.ndarray:
         """min/max of ``x[..., j : j + width + 1]`` (clipped) for j < ``length``."""
         op, ident = (np.minimum, INF) if is_min else (np.maximum, -INF)
         if length == 1:
@@ -576,7 +651,11 @@ class Demand:
         return _pad(sliding(x, 0, width, op, ident), length, ident)
 
     def until(self, f: np.ndarray, g: np.ndarray, a: int, b: int, length: int,
-              is_until: bool) -> np.ndarray:
+              is_until: bool, finite: bool) -> np.ndarray:
+        """``f until[a, b] g`` (or release) at the first ``length`` samples of ``f``; ``g``
+        is given from sample ``a`` on."""
+        g = _pad(g, f.shape[-1], -INF, front=a)
+        f, g = np.broadcast_arrays(f, g)
         if is_until:
             return _until(f, g, a, b)[..., :length]
         return -_until(-f, -g, a, b)[..., :length]
@@ -585,37 +664,55 @@ class Demand:
     def _rule(self, i: int, s: int, e: int) -> np.ndarray:
         n, length = self.n, e - s + 1
         f, kids = self.plan.nodes[i], self.plan.kids[i]
+        fin = self.finite
         match f:
-            case Pred():
-                v = self.expr(kids[0], s, e)
-                return np.broadcast_to(v, np.broadcast_shapes(np.shape(v), (length,)))
-            case TrueF():
-                return np.full(length, INF)
-            case FalseF():
-                return np.full(length, -INF)
+            case Pred():  # kept with the expressions: shared with a smooth pass
+                v = self.exprs.get(-1 - i)
+                if v is None:
+                    v = self.expr(kids[0], s, e)
+                    with np.errstate(all="ignore"):  # (a sum overflowing is only cautious)
+                        if isinstance(v, _Sep):
+                            fin[i] = bool(np.isfinite(np.sum(v.t) + np.sum(v.p)))
+                            v = v.full()
+                        else:
+                            fin[i] = bool(np.isfinite(np.sum(v)))
+                    v = np.broadcast_to(v, np.broadcast_shapes(np.shape(v), (length,)))
+                    self.exprs[-1 - i] = v
+                return v
+            case TrueF() | FalseF():
+                fin[i] = False
+                return np.full(length, INF if isinstance(f, TrueF) else -INF)
             case And() | Or():
-                return self.conj([self.at(c, s, e) for c in kids], isinstance(f, And))
+                vals = [self.at(c, s, e) for c in kids]
+                fin[i] = all(fin[c] for c in kids)
+                return self.conj(vals, isinstance(f, And), fin[i])
             case Always() | Eventually():
                 is_min = isinstance(f, Always)
                 a, b = self.plan.steps[i]
                 if b < a or s + a > n - 1:
+                    fin[i] = False
                     return np.full(length, INF if is_min else -INF)
                 x = self.at(kids[0], s + a, min(e + b, n - 1))
-                return self.window(x, b - a, length, is_min)
+                fin[i] = fin[kids[0]] and e + a <= n - 1
+                return self.window(x, b - a, length, is_min, fin[kids[0]])
             case Until() | Release():
                 is_until = isinstance(f, Until)
                 a, b = self.plan.steps[i]
                 if b < a or s + a > n - 1:
+                    fin[i] = False
                     return np.full(length, -INF if is_until else INF)
                 last = min(e + b, n - 1)
-                fl = self.at(kids[0], s, last)
-                g = _pad(self.at(kids[1], s + a, last), last - s + 1, -INF, front=a)
-                fl, g = np.broadcast_arrays(fl, g)
-                return self.until(fl, g, a, b, length, is_until)
+                fl, g = self.at(kids[0], s, last), self.at(kids[1], s + a, last)
+                ok = fin[kids[0]] and fin[kids[1]]
+                fin[i] = ok and e + a <= n - 1
+                return self.until(fl, g, a, b, length, is_until, ok)
             case Next():
                 if s + 1 > n - 1:
+                    fin[i] = False
                     return np.full(length, -INF)
-                return _pad(self.at(kids[0], s + 1, min(e + 1, n - 1)), length, -INF)
+                x = self.at(kids[0], s + 1, min(e + 1, n - 1))
+                fin[i] = fin[kids[0]] and e + 1 <= n - 1
+                return _pad(x, length, -INF)
         raise TypeError(f"not an NNF formula node: {f!r}")
 
 

@@ -317,7 +317,7 @@ def _per_realisation(value, K: int) -> np.ndarray:
 
 #: realisations evaluated together by ``shared_robustness``: (chunk, samples) temporaries of
 #: ~1 MB stay in cache, and the memory use does not grow with K
-CHUNK = 1024
+CHUNK = 512
 
 
 def shared_robustness(formulas: Mapping[str, Formula], dt: float,

@@ -196,6 +196,10 @@ def _all_finite(xs) -> bool:
         return all(np.isfinite(np.sum(x)) for x in xs)
 
 
+#: smallest sum of shifted terms trusted by the fast paths (well above the subnormals)
+TINY = 1e-280
+
+
 class _Soft:
     """A smooth min or max evaluated with a shift instead of a chain of ``logaddexp``.
 
@@ -204,12 +208,14 @@ class _Soft:
     and smin = −(M + log D)/λ, LSE smax = (M + log D)/λ, GKL smax = N/D — the values of
     ``smin``/``smax_lse``/``smax_gkl`` up to rounding.  Infinite operands give the exact
     operators' infinities, as there: an operand at the absorbing end (−inf in a min, +inf in
-    a max) decides, one at the identity end drops out.  All-finite operands take a fast
-    path (one exp per operand and element, computed in place); time-only operands, shape
-    (n,), are reduced before the per-realisation ones, shape (K, n)."""
+    a max) decides, one at the identity end drops out.  Operands known to be finite
+    (``finite=True``; ``None``: check) take fast paths: one exp per operand and element,
+    in place; time-only operands, shape (n,), are reduced before the per-realisation ones,
+    shape (K, n)."""
 
     def __init__(self, lam: float, is_min: bool, gkl: bool):
         self.lam, self.sign, self.gkl = lam, (-1.0 if is_min else 1.0), gkl and not is_min
+        self.ext = np.minimum if is_min else np.maximum
 
     # ---- states (general: any infinities)
     def state(self, x: np.ndarray, axis: int | None = None):
@@ -253,100 +259,162 @@ class _Soft:
         st = self.state(np.stack(np.broadcast_arrays(*xs)), axis=0)
         return tuple(None if c is None else c[0] for c in st)
 
+    def _finish(self, m, d, nn) -> np.ndarray:
+        """The value of a state without infinities."""
+        if self.gkl:
+            return nn / d
+        return self.sign * (m + np.log(d)) / self.lam
+
     # ---- reductions
-    def reduce(self, xs: list) -> np.ndarray:
+    def reduce(self, xs: list, finite: bool | None = None) -> np.ndarray:
         """Smooth min/max of operands that broadcast together."""
         xs = [np.asarray(x, dtype=float) for x in xs]
         small = [x for x in xs if x.ndim < 2]
         big = [x for x in xs if x.ndim >= 2]
-        if not _all_finite(xs):
+        if not (_all_finite(xs) if finite is None else finite):
             states = ([self._group_state(small)] if small else []) + [
                 self._group_state([x]) for x in big]
             return self.value(self.merge(states))
         if not big:
             return self.value(self._group_state(small))
         # fast path: M from the extreme operand, then one exp per operand, in place
-        ext = np.minimum if self.sign < 0 else np.maximum
+        lam = self.sign * self.lam
         m = big[0]
         for x in big[1:]:
-            m = ext(m, x)
-        m = m * (self.sign * self.lam)  # a new array: = max u over the big operands
+            m = self.ext(m, x)
+        m = m * lam  # a new array: max of u over the big operands
         s_state = self._group_state(small) if small else None
         if s_state is not None:
-            m = np.maximum(m, s_state[0])
-        d = np.zeros(m.shape)
-        nn = np.zeros(m.shape) if self.gkl else None
+            np.maximum(m, s_state[0], out=m)
         t = np.empty(m.shape)
+        d = nn = None
         for x in big:
-            np.multiply(x, self.sign * self.lam, out=t)
+            np.multiply(x, lam, out=t)
             t -= m
             np.exp(t, out=t)
-            d += t
+            d = t.copy() if d is None else np.add(d, t, out=d)
             if self.gkl:
                 t *= x
-                nn += t
+                nn = t.copy() if nn is None else np.add(nn, t, out=nn)
         if s_state is not None:
             scale = np.exp(s_state[0] - m)
             d += s_state[1] * scale
             if self.gkl:
                 nn += s_state[2] * scale
-        if self.gkl:
-            return nn / d
-        return self.sign * (m + np.log(d)) / self.lam
+        return self._finish(m, d, nn)
 
-    def along(self, x: np.ndarray) -> np.ndarray:
+    def along(self, x: np.ndarray, finite: bool | None = None) -> np.ndarray:
         """Smooth min/max along the last axis (kept, with length 1)."""
-        if not _all_finite([x]):
+        if not (_all_finite([x]) if finite is None else finite):
             return self.value(self.state(x, axis=-1))
         u = (self.sign * self.lam) * x
         m = np.max(u, axis=-1, keepdims=True)
         u -= m
         np.exp(u, out=u)
         d = np.sum(u, axis=-1, keepdims=True)
+        nn = None
         if self.gkl:
             u *= x
-            return np.sum(u, axis=-1, keepdims=True) / d
-        return self.sign * (m + np.log(d)) / self.lam
+            nn = np.sum(u, axis=-1, keepdims=True)
+        return self._finish(m, d, nn)
 
-    def window(self, x: np.ndarray, width: int, fallback: Aggregate) -> np.ndarray:
+    def window(self, x: np.ndarray, width: int, fallback: Aggregate,
+               finite: bool | None = None) -> np.ndarray:
         """Smooth min/max of ``x[..., j : j + width + 1]`` (clipped) for every j.
 
         Each row is shifted by its largest lifted value, so every term is one exp ≤ 1, and
-        window sums are van Herk sums (``np.add``, no logaddexp).  Rows with a non-finite
-        value, or where a window's sum falls below ``1e-280`` (its terms more than ~640/λ
-        below the row's extreme: the shift is too coarse), are computed by ``fallback``."""
+        window sums are sums of non-negative terms (``_window_sums``, no logaddexp).  Rows
+        with a non-finite value, or where a window's sum falls below ``TINY`` (its terms
+        more than ~640/λ below the row's extreme: the shift is too coarse), are computed
+        by ``fallback`` (the ``Aggregate``)."""
         if x.shape[-1] == 0:
             return x
         rows = x.reshape(-1, x.shape[-1])
-        out = np.empty(rows.shape)
-        fin = np.all(np.isfinite(rows), axis=-1)
-        u = (self.sign * self.lam) * rows[fin]
+        if not (_all_finite([rows]) if finite is None else finite):
+            fin = np.all(np.isfinite(rows), axis=-1)
+            out = np.empty(rows.shape)
+            if fin.any():
+                out[fin] = self.window(rows[fin], width, fallback, True)
+            out[~fin] = fallback.window(rows[~fin], 0, width)
+            return out.reshape(x.shape)
+        u = (self.sign * self.lam) * rows
         m = np.max(u, axis=-1, keepdims=True)
         u -= m
         np.exp(u, out=u)
-        d = sliding(u, 0, width, np.add, 0.0, idempotent=False)
-        if self.gkl:  # (not in place: for width 0, d is u itself)
-            v = sliding(u * rows[fin], 0, width, np.add, 0.0, idempotent=False) / d
-        else:
-            v = self.sign * (m + np.log(d)) / self.lam
-        ok = np.all(d >= 1e-280, axis=-1)
-        out[np.flatnonzero(fin)[ok]] = v[ok]
-        slow = np.flatnonzero(fin)[~ok].tolist() + np.flatnonzero(~fin).tolist()
-        if slow:
-            out[slow] = fallback.window(rows[slow], 0, width)
-        return out.reshape(x.shape)
+        d = _window_sums(u, width)
+        v = self._finish(m, d, _window_sums(u * rows, width) if self.gkl else None)
+        bad = np.flatnonzero(np.min(d, axis=-1) < TINY)
+        if bad.size:
+            v[bad] = fallback.window(rows[bad], 0, width)
+        return v.reshape(x.shape)
+
+    def prefix_terms(self, f: np.ndarray, g: np.ndarray, fallback: Aggregate,
+                     finite: bool | None = None) -> np.ndarray:
+        """``self`` over ``{g[j - a]} ∪ f[0..j]`` for j = a … a + len(g) − 1, with
+        ``a = len(f) − len(g)``: the terms of an until at its first sample.  Cumulative
+        sums after a shift by each row's extreme; rows with a non-finite value or a sum
+        below ``TINY`` are computed by ``fallback``, one term at a time."""
+        a = f.shape[-1] - g.shape[-1]
+        shape = np.broadcast_shapes(f.shape[:-1], g.shape[:-1])
+        f2 = np.broadcast_to(f, shape + f.shape[-1:]).reshape(-1, f.shape[-1])
+        g2 = np.broadcast_to(g, shape + g.shape[-1:]).reshape(-1, g.shape[-1])
+        out = np.empty(g2.shape)
+        if finite is None:
+            finite = _all_finite([f2, g2])
+        ok = (np.ones(len(f2), dtype=bool) if finite else
+              np.all(np.isfinite(f2), axis=-1) & np.all(np.isfinite(g2), axis=-1))
+        rows = np.flatnonzero(ok)
+        if rows.size:
+            fr, gr = (f2, g2) if rows.size == len(f2) else (f2[rows], g2[rows])
+            uf, ug = (self.sign * self.lam) * fr, (self.sign * self.lam) * gr
+            m = np.maximum(np.max(uf, axis=-1, keepdims=True),
+                           np.max(ug, axis=-1, keepdims=True))
+            ef, eg = np.exp(uf - m), np.exp(ug - m)
+            d = np.cumsum(ef, axis=-1)[:, a:] + eg
+            nn = (np.cumsum(fr * ef, axis=-1)[:, a:] + gr * eg) if self.gkl else None
+            v = self._finish(m, d, nn)
+            good = np.min(d, axis=-1) >= TINY
+            out[rows[good]] = v[good]
+            ok[rows[~good]] = False
+        for r in np.flatnonzero(~ok).tolist():  # the reference, one term at a time
+            acc = fallback.empty((1,))
+            for j in range(f2.shape[-1]):
+                acc = fallback.combine(acc, fallback.lift(f2[r, j:j + 1]))
+                if j >= a:
+                    out[r, j - a] = fallback.value(fallback.combine(acc, fallback.lift(
+                        g2[r, j - a:j - a + 1])))[0]
+        return out.reshape(shape + g.shape[-1:])
+
+
+def _window_sums(x: np.ndarray, width: int) -> np.ndarray:
+    """``x[..., j : j + width + 1].sum()`` (clipped) for every j: sums of 2^i consecutive
+    samples by doubling, a window being the disjoint pieces of the binary expansion of its
+    length (additions of non-negative terms only: no cancellation).  A new array."""
+    m = x.shape[-1]
+    w = min(width + 1, m)
+    if w == 1:
+        return x.copy()
+    cur = np.concatenate([x, np.zeros(x.shape[:-1] + (w - 1,))], axis=-1)
+    out, off, span = None, 0, 1
+    while True:
+        if w & span:
+            piece = cur[..., off:off + m]
+            out = piece.copy() if out is None else np.add(out, piece, out=out)
+            off += span
+        if 2 * span > w:
+            return out
+        cur = cur[..., :-span] + cur[..., span:]
+        span *= 2
 
 
 class SmoothDemand(Demand):
-    """``monitor.Demand`` with the smooth semantics (same results as ``_Smooth`` up to
-    rounding; a test checks it).  ``share`` — an exact ``Demand`` on the same plan, trace and
-    parameters — lends its predicate values instead of recomputing them."""
+    """``monitor.Demand`` with the smooth semantics (the values of ``_Smooth`` up to
+    rounding; tests check it).  ``share`` — an exact ``Demand`` on the same plan, trace and
+    parameters — lends its predicate values and finiteness flags."""
 
     def __init__(self, plan: Plan, channels: Channels, params: Params | None = None,
                  lam: float = 10.0, method: str = "gkl", *, share: Demand | None = None):
-        if share is not None and share.plan is not plan:
-            raise ValueError("share must be a Demand on the same plan")
-        super().__init__(plan, channels, params, exprs=None if share is None else share.exprs)
+        super().__init__(plan, channels, params, share=share)
         if method not in METHODS:
             raise ValueError(f"unknown smoothing method {method!r} (use one of {METHODS})")
         if not lam > 0:
@@ -356,21 +424,28 @@ class SmoothDemand(Demand):
         self.smin = smin(lam)
         self.smax = smax_gkl(lam) if gkl else smax_lse(lam)
 
-    def conj(self, kids: list, is_and: bool) -> np.ndarray:
+    def conj(self, kids: list, is_and: bool, finite: bool) -> np.ndarray:
         if len(kids) == 1:
             return kids[0]
-        return (self.soft_min if is_and else self.soft_max).reduce(kids)
+        return (self.soft_min if is_and else self.soft_max).reduce(kids, finite)
 
-    def window(self, x: np.ndarray, width: int, length: int, is_min: bool) -> np.ndarray:
-        if length == 1:
-            return (self.soft_min if is_min else self.soft_max).along(x)
+    def window(self, x: np.ndarray, width: int, length: int, is_min: bool,
+               finite: bool) -> np.ndarray:
         soft, agg = (self.soft_min, self.smin) if is_min else (self.soft_max, self.smax)
-        return _pad(soft.window(x, width, agg), length, INF if is_min else -INF)
+        if length == 1:
+            return soft.along(x, finite)
+        return _pad(soft.window(x, width, agg, finite), length, INF if is_min else -INF)
 
     def until(self, f: np.ndarray, g: np.ndarray, a: int, b: int, length: int,
-              is_until: bool) -> np.ndarray:
+              is_until: bool, finite: bool) -> np.ndarray:
         outer, inner = (self.smax, self.smin) if is_until else (self.smin, self.smax)
-        return _nested_head(outer, inner, f, g, a, b, length)
+        if length > 1:
+            g = _pad(g, f.shape[-1], -INF, front=a)
+            return _nested_head(outer, inner, *np.broadcast_arrays(f, g), a, b, length)
+        # at one sample: the outer aggregate of the terms inner({g(k')} ∪ f[0..k'])
+        soft_in, soft_out = ((self.soft_min, self.soft_max) if is_until else
+                             (self.soft_max, self.soft_min))
+        return soft_out.along(soft_in.prefix_terms(f, g, inner, finite), finite)
 
 
 def _nested_head(outer: Aggregate, inner: Aggregate, f: np.ndarray, g: np.ndarray, a: int,
@@ -400,13 +475,12 @@ def _nested_head(outer: Aggregate, inner: Aggregate, f: np.ndarray, g: np.ndarra
 def smooth_robustness_many(formulas, dt: float, channels: Channels,
                            params: Params | None = None, lam: float = 10.0,
                            method: str = "gkl", *, n: int | None = None) -> list:
-    """Smooth robustness at the first sample of each formula in one shared, demand-driven
-    evaluation (``SmoothDemand``): floats, or arrays of shape (K,)."""
+    """Smooth robustness at the first sample of each formula (``ir.normalize`` is applied)
+    in one shared, demand-driven evaluation (``SmoothDemand``): floats, or arrays of
+    shape (K,)."""
     if n is None:
         if not channels:
             raise ValueError("no channels: pass the number of samples n")
         n = len(next(iter(channels.values())))
-    if n < 1:
-        raise ValueError("the trace has no samples")
     plan = Plan([ir.normalize(f) for f in formulas], dt, n)
     return SmoothDemand(plan, channels, params, lam, method).values()

@@ -125,16 +125,20 @@ def test_impossible_mission_is_violated(tmp_path):
 # ------------------------------------------------------------------ shipped handover missions
 #
 # Every time bound in specs/handover.stl is a multiple of 0.5 s, so the missions can be
-# planned on a coarser grid than their 0.1 s step (35 instead of 171 samples) to keep the
-# suite fast.  Measured on this code (2 shared cores):
-#   handover_front    0.5 s: satisfied, exact ≈ +0.03 in ≈ 10 s
-#   handover_left     0.5 s: satisfied, exact ≈ +0.074 in ≈ 50 s (only in the 4th λ stage,
-#                     λ = 270; 0.25 s: +0.049 at λ = 30 in ≈ 60 s)
-#   handover_left_tb  0.5 s: VIOLATED, exact ≈ -0.050 (visibility/approach), 4 λ stages
-#                     1.0 s: violated, exact ≈ -0.16
-#                     0.25 s: satisfied, exact ≈ +0.06 in ≈ 40 s   ← used here
-# (step 1.0 s fails for every mission: handover_front ends solver_failed.)
-HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.5, "handover_left": 0.5}
+# planned on a coarser grid than their 0.1 s step to keep the suite fast.  Measured on this
+# code (single-threaded MUMPS, 2 shared cores), exact robustness and wall time:
+#
+#   mission           step 0.5 s (35 samples)         step 0.25 s (69 samples)
+#   handover_front    satisfied +0.056, 8 s  ← used    satisfied +0.059, 35 s
+#   handover_left_tb  VIOLATED  -0.050, 20 s           satisfied +0.062, 15 s  ← used
+#                     (visibility/approach fail
+#                     in all 4 λ stages)
+#   handover_left     VIOLATED  -0.000, 23 s           satisfied +0.016, 85 s  ← used
+#                     (approach exactly 0 after        (only the 4th λ stage, λ = 270,
+#                     4 λ stages, 300 it. each)        succeeds)
+#
+# Step 1.0 s (18 samples) is worse: left_tb -0.16, left -0.40, front solver_failed.
+HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.5, "handover_left": 0.25}
 
 
 @pytest.fixture(scope="module")
@@ -189,7 +193,7 @@ def test_handover_mission_plans_satisfying(handover_plans, name):
 #   so the defect is the solver's feasibility tolerance (≤ 1e-6) — this is exact;
 # * against scipy's DOP853 at tight tolerances (the continuous dynamics): the defect is
 #   RK4's discretisation error.  At the missions' own 0.1 s step it is ~1e-6 m.  At 0.5 s
-#   (one RK4 step per interval, as the backend builds it) it is up to ~4 cm on the
+#   (one RK4 step per interval, as the backend builds it) it is 3-4 cm on the
 #   handover_front plan — far above the 1e-3 m the issue expected (see the xfail below).
 
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
@@ -263,7 +267,7 @@ def test_multirotor_plan_resimulates_at_full_step(tmp_path):
     assert d["forces"] < 1e-6  # ξ̇ = u is integrated exactly
 
 
-@pytest.mark.xfail(strict=True, reason="one RK4 step per 0.5 s interval is ~4 cm off the "
+@pytest.mark.xfail(strict=True, reason="one RK4 step per 0.5 s interval is 3-4 cm off the "
                    "continuous dynamics on the handover_front plan (issue asked < 1e-3 m); "
                    "the backend does not sub-step coarse grids")
 def test_multirotor_plan_resimulates_at_half_second(handover_plans, handover_program,

@@ -54,7 +54,7 @@ scenario {
 }
 mission demo {
   horizon = 2 s  step = 0.1 s
-  spec safe = always[0, 2] (uav1.pos.z <= 2.5 and uav1.pos.z >= 0.2 and uav1.pos not in operator.behind)
+  spec safe = always[0, 2] (uav1.pos.z in [0.2, 2.5] and uav1.pos not in operator.behind)
   spec reach = eventually[1, 2] (uav1.pos.x >= -0.5 or uav1.pos in operator.ho)
   require safe and reach   # </script><img src=x onerror="window.__pwned=2">
 }
@@ -583,7 +583,7 @@ def test_risk_case_declaration_linked():
                                          ((0.25, 0, 0), (0, 0.25, 0), (0, 0, 0))),), span(12))
     mission = replace(mission, risk=RiskConfig((case,)))
     a = build_view(program, mission, sol)["risk"]["cases"][0]
-    assert a["distribution"] == "operator.pos ~ N((0, 0, 0), diag(0.25, 0.25, 0))"
+    assert a["distribution"] == "operator.pos ~ N((0, 0, 0) m, diag(0.25, 0.25, 0) m²)"
     assert a["anchor"] == "L12"
 
 
@@ -631,7 +631,8 @@ def test_num_rounds_to_five_digits():
 @pytest.mark.parametrize("label, text", [
     # box membership is six face predicates labelled with the source text; the normal form
     # pushes the negation of `not in` onto a face: outside, past that face
-    ("not (uav1.pos not in operator.behind (y <= hi))", "uav1.pos outside operator.behind (y > hi)"),
+    ("not (uav1.pos not in operator.behind (y <= hi))",
+     "uav1.pos outside operator.behind (y > hi)"),
     ("not (uav1.pos in pole (x >= lo))", "uav1.pos outside pole (x < lo)"),
     ("uav1.pos in operator.handover (x >= lo)", "uav1.pos in operator.handover (x ≥ lo)"),
     ("uav1.rotor_speed in [40 Hz, 80 Hz] (lower)", "uav1.rotor_speed ≥ 40 Hz"),
@@ -670,6 +671,15 @@ def test_spec_spanning_several_lines_is_highlighted():
                                            "safe": Span(FILE, 13, 3, 14, 10)})
     lines = build_view(program, mission, sol)["source"]["lines"]
     assert "spec" in lines[12]["cls"] and "spec" in lines[13]["cls"]
+    # a span that runs to the next declaration (column 1) leaves out the comment lines
+    # and blank lines before it
+    source = program.source.replace("  require safe", "  # the requirement:\n\n  require safe")
+    program = replace(program, source=source)
+    mission = replace(mission, spec_spans={"safe": Span(FILE, 13, 3, 14, 1),
+                                           "reach": Span(FILE, 14, 3, 17, 1)})
+    rows = {r["name"]: r for r in build_view(program, mission, sol)["specs"]}
+    assert (rows["safe"]["line"], rows["safe"]["end_line"]) == (13, 13)
+    assert (rows["reach"]["line"], rows["reach"]["end_line"]) == (14, 14)
 
 
 # --------------------------------------------------------------------------- rendering

@@ -2,14 +2,19 @@
 
 Opens the written report from a ``file://`` URL with every non-file request refused, and
 checks that no console error occurs, that every plot container holds a rendered plotly
-figure, and that the ``<script>`` in the mission text did not run.  Full-page screenshots go
-to ``reports/_screens/`` (git-ignored) for a person to look at.
+figure, and that the ``<script>`` in the mission text did not run.  Besides the synthetic
+solutions of ``test_report``, a small real mission (two point masses, an operator with
+regions in their frame, a comparison plan and two risk cases; it plans in a few seconds) is
+compiled with ``stlc.compile.plan`` and written with ``write_outputs``, so the page is tested
+on the data shapes ``compile`` really produces, for a satisfied and for a violated plan.
+Full-page screenshots go to ``reports/_screens/`` (git-ignored) for a person to look at.
 
 Skipped only when no Chromium binary is installed (Debian package ``chromium``).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import shutil
@@ -21,6 +26,65 @@ from test_report import synthetic_case
 
 from stlc.report import write_report
 from stlc.solution import Solution
+
+#: two point masses hand a parcel to an operator while keeping apart; `far` cannot deliver in
+#: time (a violated plan)
+TEAM_STL = """\
+# Two drones and an operator. <script>window.__pwned = 1</script>
+vehicle uav1 : point_mass {
+  vel_max = (2, 2, 1) m/s
+  acc_max = (3, 3, 2) m/s^2
+  start { pos = (-2, -1.5, 1) m }
+}
+vehicle uav2 : point_mass {
+  vel_max = (2, 2, 1) m/s
+  acc_max = (3, 3, 2) m/s^2
+  start { pos = (2, -1.5, 1) m }
+}
+scenario {
+  workspace = box((-3, -3, 0), (3, 3, 2.5)) m
+  obstacle post = box((-0.3, -0.6, 0), (0.3, 0, 2.5)) m
+  target drop = box((1, 1, 0.5), (2, 2, 1.5)) m
+  human operator {
+    pos = (-1.5, 2, 0) m
+    att = (0, 0, -90) deg
+    region handover = box((0.6, -0.4, 0.7), (1.2, 0.4, 1.3)) m
+    region behind = box((-1, -0.5, 0), (-0.2, 0.5, 2)) m
+    region unused = box((2, -0.5, 0), (2.5, 0.5, 2)) m
+  }
+}
+spec safety = always[0, 4] (uav1.pos in workspace and uav1.pos not in post
+                            and uav2.pos in workspace and uav2.pos not in post
+                            and uav1.pos not in operator.behind)
+mission team {
+  vehicles = [uav1, uav2]
+  horizon = 4 s
+  step = 0.2 s
+  threshold = 0.01
+  spec separation = always[0, 4] (dist(uav1.pos, uav2.pos) >= 1 m)
+  spec hand = eventually[2, 4] (uav1.pos in operator.handover)
+  spec deliver = eventually[2, 4] (uav2.pos in drop)
+  spec calm = always[3, 4] (uav2.speed <= 1.5 m/s)
+  require safety and separation and hand and deliver and calm
+  minimize -robustness
+  # </script><img src=x onerror="window.__pwned=2">
+  compare gentle { minimize 0.5 * energy - robustness }
+  risk {
+    K = 300; delta = 0.05; beta = [0.8, 0.9]; seed = 3
+    case small { operator.pos ~ normal((-1.5, 2, 0) m, diag(0.01, 0.01, 0) m^2) }
+    case wide  { operator.pos ~ normal((-1.5, 2, 0) m, diag(0.1, 0.1, 0) m^2) }
+  }
+}
+mission far {
+  vehicles = [uav1, uav2]
+  horizon = 4 s
+  step = 0.2 s
+  spec separation = always[0, 4] (dist(uav1.pos, uav2.pos) >= 1 m)
+  spec deliver = eventually[0, 1] (uav2.pos in drop)
+  require safety and separation and deliver
+  minimize -robustness
+}
+"""
 
 REPO = Path(__file__).resolve().parents[1]
 SCREENS = REPO / "reports" / "_screens"
@@ -97,6 +161,15 @@ def assert_page_sound(page) -> None:
     assert page.evaluate("() => window.__pwned") is None, "mission text ran as script"
 
 
+def screenshot(page, name: str) -> None:
+    SCREENS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(SCREENS / name), full_page=True)
+
+
+def report_data(page) -> dict:
+    return json.loads(page.eval_on_selector("#report-data", "el => el.textContent"))
+
+
 @pytest.mark.parametrize("status, shot", [("satisfied", "report.png"),
                                           ("violated", "report_violated.png")])
 def test_report_renders_in_chromium(browser, tmp_path, status, shot):
@@ -106,8 +179,9 @@ def test_report_renders_in_chromium(browser, tmp_path, status, shot):
     try:
         assert_page_sound(page)
         ids = page.eval_on_selector_all("[data-plot]", "els => els.map(el => el.id)")
-        assert {"scene-3d", "scene-top", "sig-position", "sig-speed", "sig-rotor",
-                "sig-heading-1", "energy-profile", "risk-0"} <= set(ids)
+        assert {"scene-3d", "scene-top", "sig-timeline", "sig-position", "sig-speed",
+                "sig-rotor", "sig-heading-1", "sig-heading-error-1", "energy-profile",
+                "risk-0"} <= set(ids)
         # the 3D scene draws into a WebGL canvas
         assert page.locator("#scene-3d canvas").count() >= 1
         # every rotor made it into the SVG
@@ -119,8 +193,9 @@ def test_report_renders_in_chromium(browser, tmp_path, status, shot):
             assert banner.count() == 0
         else:
             assert "reach" in banner.inner_text() and "1.5 s" in banner.inner_text()
-        SCREENS.mkdir(parents=True, exist_ok=True)
-        page.screenshot(path=str(SCREENS / shot), full_page=True)
+        # the bound lines are labelled on the plots
+        assert "Γ_pro max = 80 Hz" in page.inner_text("#sig-rotor")
+        screenshot(page, shot)
         page.click("a[href='#L14']")  # a requirement row links to its source line
         assert page.evaluate("() => location.hash") == "#L14"
         assert page.locator("#L14").is_visible()
@@ -140,6 +215,89 @@ def test_report_without_a_plan_renders_in_chromium(browser, tmp_path):
     try:
         assert_page_sound(page)
         assert "Solver failed" in page.inner_text("[role=alert]")
+    finally:
+        page.close()
+    assert outside == [] and errors == [], (outside, errors)
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory):
+    """The two missions of ``TEAM_STL`` planned, risk-assessed and written as ``compile``
+    does; returns {mission: output directory}."""
+    from stlc.assess import run_risk
+    from stlc.compile import plan, write_outputs
+    from stlc.pipeline import load
+
+    root = tmp_path_factory.mktemp("real")
+    src = root / "team.stl"
+    src.write_text(TEAM_STL, encoding="utf-8")
+    loaded = load(str(src))
+    out = {}
+    for name, mission in loaded.program.missions.items():
+        sol, *_ = plan(loaded.program, mission, quiet=True)
+        sol.timing.update(loaded.timing)
+        risk, results = run_risk(loaded.program, mission, sol)
+        write_outputs(str(root / name), loaded.program, mission, sol, risk, results)
+        out[name] = root / name
+    return out
+
+
+def test_real_compiled_mission_renders_in_chromium(browser, compiled):
+    outdir = compiled["team"]
+    assert sorted(os.listdir(outdir)) == ["report.html", "risk.json", "risk_samples.npz",
+                                          "solution.json", "trajectory.csv"]
+    page, errors, outside = open_report(browser, outdir / "report.html")
+    try:
+        assert_page_sound(page)
+        ids = set(page.eval_on_selector_all("[data-plot]", "els => els.map(el => el.id)"))
+        assert {"scene-3d", "scene-top", "sig-timeline", "sig-position", "sig-speed", "sig-vel",
+                "sig-acc", "sig-distance", "risk-0", "risk-1"} <= ids
+        assert not any(i.startswith(("sig-rotor", "sig-heading")) for i in ids)
+        assert "energy-profile" not in ids  # point masses: no rotor energy
+        data = report_data(page)
+        status = json.loads((outdir / "solution.json").read_text())["status"]
+        assert page.inner_text(".top .pill").lower() == status.replace("_", " ")
+        # the trajectory of both drones, every sample
+        assert [len(t["x"]) for t in data["scene"]["trajectories"]] == [21, 21]
+        # the operator's regions, moved into the world; the unused one hidden
+        boxes = {b["name"]: b for b in data["scene"]["boxes"]}
+        assert boxes["operator.handover"]["visible"] and not boxes["operator.unused"]["visible"]
+        assert "unused" in page.inner_text("#scene-section")
+        # bounds the mission states: Γ_dis on the distance plot, Γ_vel over calm's window
+        assert "Γ_dis = 1 m" in page.inner_text("#sig-distance")
+        speed = next(p for p in data["signals"]["plots"] if p["id"] == "sig-speed")
+        assert [(b["value"], b["x0"], b["x1"]) for b in speed["bounds"]] == [(1.5, 3.0, 4.0)]
+        # histograms from risk_samples.npz: every realisation counted
+        for case in data["risk"]["cases"]:
+            assert sum(case["histogram"]["counts"]) == 300
+        assert page.locator("#risk-1 .bars path, #risk-1 .point path").count() > 0
+        # the comparison plan side by side
+        assert "gentle (w = 0.5)" in page.inner_text("#energy")
+        # readable binding predicates, linked to their source line
+        rows = page.locator("#requirements tbody tr")
+        assert rows.count() == 5
+        assert "<=" not in page.inner_text("#requirements tbody")
+        assert page.locator("#L1").inner_text().endswith("<script>window.__pwned = 1</script>")
+        screenshot(page, "report_real_team.png")
+    finally:
+        page.close()
+    assert outside == [] and errors == [], (outside, errors)
+
+
+def test_real_violated_plan_renders_in_chromium(browser, compiled):
+    outdir = compiled["far"]
+    assert json.loads((outdir / "solution.json").read_text())["status"] == "violated"
+    assert "risk.json" not in os.listdir(outdir)
+    page, errors, outside = open_report(browser, outdir / "report.html")
+    try:
+        assert_page_sound(page)
+        banner = page.inner_text("[role=alert]")
+        assert "Mission violated" in banner and "deliver" in banner
+        assert page.locator("#risk").count() == 0 and page.locator("a[href='#risk']").count() == 0
+        # the failure time is marked on the plots, and the failing lines in the source
+        assert "deliver fails" in page.inner_text("#sig-position")
+        assert page.locator("#source .line.fail").count() >= 1
+        screenshot(page, "report_real_violated.png")
     finally:
         page.close()
     assert outside == [] and errors == [], (outside, errors)

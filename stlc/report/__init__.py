@@ -3,8 +3,9 @@
 ``build_view(program, mission, solution)`` turns a ``Solution`` into JSON-serialisable data;
 ``render_report(view)`` returns the self-contained page; ``write_report(path, program,
 mission, solution)`` does both and writes the file atomically.  The view model is built by
-``view`` from ``scene``, ``signals``, ``energy`` and ``risk_view``; ``predicates`` renders
-the monitor's predicate labels readably; ``common`` holds the number formatting.
+``view`` (summary, requirements, energy, source) with ``scene``, ``signals`` and
+``risk_view``; ``predicates`` renders the monitor's predicate labels readably; ``common``
+holds the number formatting.
 """
 
 from __future__ import annotations

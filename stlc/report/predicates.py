@@ -3,10 +3,11 @@
 The monitor names a binding predicate by its source text plus the face it binds on, with
 the negations of the normal form spelled out: ``not (uav1.pos not in operator.behind (y <=
 hi))`` is the face constraint of being *outside* ``operator.behind`` past its ``y = hi``
-face: the predicate under the ``not`` is the membership face ``y <= hi`` (box membership is
-six face predicates, each labelled with the source text ``uav1.pos not in operator.behind``),
-and the normal form pushed the negation of ``not in`` down onto it.  ``readable`` turns such labels into ``uav1.pos outside operator.behind (y > hi)``
-without changing what they mean; the raw label stays in the view for the tooltip.
+face.  The predicate under the ``not`` is the membership face ``y <= hi`` (box membership
+is six face predicates, each labelled with the source text ``uav1.pos not in
+operator.behind``), and the normal form pushed the negation of ``not in`` down onto it.
+``readable`` turns such labels into ``uav1.pos outside operator.behind (y > hi)`` without
+changing what they mean; the raw label stays in the view for the tooltip.
 """
 
 from __future__ import annotations

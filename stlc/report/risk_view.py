@@ -48,7 +48,7 @@ def _given_histogram(hist: object) -> dict | None:
 
 
 def distribution_text(dists: tuple[Normal, ...]) -> str:
-    """``operator.pos ~ N((0, 0, 0), diag(0.125, 0.125, 0))`` (SI units)."""
+    """``operator.pos ~ N((0, 0, 0) m, diag(0.125, 0.125, 0) m²)`` (SI units)."""
     parts = []
     for d in dists:
         stems = {p.rsplit(".", 1)[0] for p in d.params}
@@ -58,7 +58,8 @@ def distribution_text(dists: tuple[Normal, ...]) -> str:
             cov_text = "diag" + fmt_vec(np.diag(cov))
         else:
             cov_text = "[" + "; ".join(fmt_vec(r)[1:-1] for r in cov) + "]"
-        parts.append(f"{name} ~ N({fmt_vec(d.mean)}, {cov_text})")
+        m, m2 = (" m", " m²") if name.endswith(".pos") else ("", "")
+        parts.append(f"{name} ~ N({fmt_vec(d.mean)}{m}, {cov_text}{m2})")
     return "; ".join(parts)
 
 

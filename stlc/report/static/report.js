@@ -9,6 +9,8 @@
   var PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                  "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
   var LIMIT = "#c5221f", SOFT = "#e08a00", GRID = "#eef1f4";
+  /* VaR/CVaR lines, one colour per β (no red: red bars are the violations) */
+  var RISK_COLORS = ["#e08a00", "#2ca02c", "#6a3d9a", "#1f4e79", "#8c564b"];
   /* corner k of a box: x = hi iff bit 0, y iff bit 1, z iff bit 2 */
   var EDGES = [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7],
                [0, 4], [1, 5], [2, 6], [3, 7]];
@@ -113,7 +115,7 @@
                 bgcolor: "rgba(255,255,255,0.8)", bordercolor: "#dde2e8", borderwidth: 1 },
       scene: { aspectmode: "data", domain: { x: [0, 0.86], y: [0, 1] },
                xaxis: ax("x (m)"), yaxis: ax("y (m)"), zaxis: ax("z (m)"),
-               camera: { eye: { x: -1.25, y: -1.55, z: 1.0 }, center: { x: 0, y: 0, z: -0.15 } } } }));
+               camera: { eye: { x: -1.3, y: -1.6, z: 1.0 }, center: { x: 0, y: 0, z: -0.15 } } } }));
   }
   function centroid(ring, axis) {
     var pts = ring.slice(0, -1), sum = 0;
@@ -214,10 +216,14 @@
                    text: txt(w.spec), showarrow: false, font: { size: 10, color: w.color } });
       k += 1;
     });
-    sig.markers.forEach(function (m) {
+    var t0 = sig.t.length ? sig.t[0] : 0, t1 = tEnd(sig.t);
+    sig.markers.forEach(function (m, j) {
+      /* a failure near the end of the plan is labelled on the left of its line */
+      var late = m.t > t0 + 0.8 * (t1 - t0);
       shapes.push({ type: "line", xref: "x", yref: "paper", x0: m.t, x1: m.t, y0: 0, y1: 1,
                     line: { color: LIMIT, width: 1.5, dash: "dot" } });
-      notes.push({ xref: "x", yref: "paper", x: m.t, y: 0.5, xanchor: "left", yanchor: "middle",
+      notes.push({ xref: "x", yref: "paper", x: m.t, y: 0.5 - 0.1 * j, xanchor: late ? "right" : "left",
+                   yanchor: "middle",
                    text: txt(m.label), showarrow: false, bgcolor: "rgba(255,255,255,0.75)",
                    font: { size: 10, color: LIMIT } });
     });
@@ -273,7 +279,7 @@
       margin: { l: 58, r: 70, t: 36, b: 44 }, xaxis: timeAxis(),
       yaxis: { title: { text: "J per sample" }, gridcolor: GRID, zeroline: false },
       yaxis2: { title: { text: "cumulative (J)" }, overlaying: "y", side: "right", showgrid: false,
-                zeroline: false } }));
+                zeroline: false, rangemode: "tozero", tickmode: "auto", nticks: 6 } }));
   }
   function vline(x, name, color, dash, group) {
     return { type: "scatter", mode: "lines", x: [x, x], y: [0, 1], yaxis: "y2", name: name,
@@ -282,9 +288,9 @@
   }
   function riskPlot(c) {
     var h = c.histogram;
-    var colors = h.centers.map(function (x) { return x < 0 ? "#d62728" : "#1f77b4"; });
+    var colors = h.centers.map(function (x) { return x <= 0 ? "#f1a7a7" : "#9ec5e8"; });
     var traces = [{ type: "bar", x: h.centers, y: h.counts, width: h.widths, name: "realisations",
-                    showlegend: false, marker: { color: colors, opacity: 0.8, line: { width: 0 } },
+                    showlegend: false, marker: { color: colors, line: { width: 0 } },
                     hovertemplate: "ρ ≈ %{x}: %{y}<extra></extra>" }];
     if (c.nominal !== null) traces.push(vline(c.nominal, "nominal ρ = " + c.nominal_text, "#111", "solid", "n"));
     /* pad the range so that lines at the extremes (the nominal plan is often the best) show */
@@ -292,12 +298,12 @@
       .filter(function (x) { return x !== null; });
     var w = h.widths[0] || 0, lo = Math.min.apply(null, xs) - w, hi = Math.max.apply(null, xs) + w;
     c.var_lines.forEach(function (v, k) {
-      var col = PALETTE[(k + 1) % PALETTE.length];
+      var col = RISK_COLORS[k % RISK_COLORS.length];
       traces.push(vline(v.value, "VaR " + v.beta + " = " + v.var_text, col, "dash", "b" + k));
       if (v.cvar !== null) traces.push(vline(v.cvar, "CVaR " + v.beta + " = " + v.cvar_text, col, "dot", "b" + k));
     });
     draw(c.id, traces, baseLayout({
-      title: title("Exact robustness over " + c.K + " realisations (red: violated)"),
+      title: title("Exact robustness over " + c.K + " realisations (red: ρ ≤ 0, violated)"),
       hovermode: "closest", bargap: 0,
       margin: { l: 58, r: 10, t: 36, b: 44 },
       legend: { orientation: "v", x: 1.02, xanchor: "left", y: 1, yanchor: "top", font: { size: 10 } },
