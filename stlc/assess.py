@@ -1,26 +1,35 @@
 """Risk assessment pass: a plan (a ``Solution``'s channels, or a trajectory CSV) and a
 mission's risk cases → ``risk.json`` data and per-realisation samples (paper A §4.3).
 
-``run_risk`` samples each case's uncertain human pose, re-evaluates the *fixed* plan's exact
-and smooth robustness for the requirement and each named spec, and summarises VaR/CVaR with
-DKW bounds and the violation probability (``stlc.risk``).  ``risk_file`` is ``stlc risk``.
+``run_risk`` samples each case's uncertain human pose and re-evaluates the *fixed* plan's
+exact and smooth robustness of the requirement and of each named spec for all K
+realisations in one shared evaluation (``stlc.risk.shared_robustness``), then summarises
+VaR/CVaR with DKW bounds, the violation probability, the spec that drives the violations
+and a histogram (``stlc.risk``).  ``risk_file`` is ``stlc risk FILE --trajectory CSV``:
+it reads a compiled plan's ``trajectory.csv`` (states, inputs and derived channels),
+writes ``risk.json`` and ``risk_samples.npz`` and prints a short table; a bad file or
+mission name is reported as diagnostics (exit 1), never as a traceback.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import sys
 
 from stlc import ir, model
 from stlc.compile import mission_specs
-from stlc.diagnostics import Diagnostic, Span, StlcError
+from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.solution import Solution
 
 EXIT_OK = 0
 
 
-def run_risk(program: model.Program, mission: model.Mission, sol: Solution):
-    """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results)."""
+def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
+             dt: float | None = None):
+    """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results), or
+    (None, None) without a ``risk`` block.  ``dt`` is the plan's sample period (default:
+    the mission's step)."""
     from stlc import risk as riskmod
 
     cfg = mission.risk
@@ -28,42 +37,110 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Solution):
         return None, None
     specs = {k: ir.normalize(f) for k, (f, _) in mission_specs(program, mission).items()}
     base = tuple(d for h in program.scenario.humans for d in h.uncertain)
-    results = riskmod.run_cases(cfg, ir.normalize(mission.requirement), specs, mission.step,
-                                sol.channels, program.params, mission.smoothing.lam,
+    results = riskmod.run_cases(cfg, ir.normalize(mission.requirement), specs,
+                                mission.step if dt is None else dt, sol.channels,
+                                program.params, mission.smoothing.lam,
                                 mission.smoothing.method, base=base)
-    return {"cases": [r.to_json() for r in results]}, results
+    return {"mission": mission.name, "cases": [r.to_json() for r in results]}, results
+
+
+def _missions(path: str, program: model.Program, mission: str | None) -> model.Mission:
+    """The mission to assess: ``mission``, or the only one with a ``risk`` block."""
+    where = Span(path, 1, 1, 1, 2)
+    with_risk = [m for m, mm in program.missions.items() if mm.risk is not None]
+    if mission is not None:
+        if mission not in program.missions:
+            raise StlcError([Diagnostic(
+                "STL101", f"no mission `{mission}` in {path}", where,
+                did_you_mean(mission, program.missions) or
+                "missions: " + (", ".join(program.missions) or "none"))])
+        m = program.missions[mission]
+        if m.risk is None:
+            raise StlcError([Diagnostic(
+                "STL109", f"mission `{mission}` has no `risk` block to assess", m.span,
+                "add `risk { K = ...; case NAME { ... } }` to the mission"
+                + (f", or use --mission {with_risk[0]}" if with_risk else ""))])
+        return m
+    if len(with_risk) == 1:
+        return program.missions[with_risk[0]]
+    if not with_risk:
+        raise StlcError([Diagnostic("STL109", f"{path} has no mission with a `risk` block",
+                                    where, "add `risk { ... }` to a mission")])
+    raise StlcError([Diagnostic("STL109", f"{path} has {len(with_risk)} missions with a "
+                                "`risk` block: which one planned this trajectory?", where,
+                                "pass --mission NAME (one of " + ", ".join(with_risk) + ")")])
 
 
 def risk_file(path: str, trajectory: str, mission: str | None = None,
               out: str | None = None) -> int:
+    """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
+    cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
+    (default: the trajectory's directory) and prints a table."""
     from stlc.pipeline import load
+    from stlc.risk import RiskError, SamplingError, save_samples
     from stlc.trace import check_signals, read_trace
 
     program = load(path).program
-    names = [mission] if mission else [m for m, mm in program.missions.items() if mm.risk]
-    if not names or any(n not in program.missions for n in names):
-        raise StlcError([Diagnostic("STL109", "no mission with a `risk` block to assess",
-                                    Span(path, 1, 1, 1, 2), "pass --mission NAME")])
+    m = _missions(path, program, mission)
     trace = read_trace(trajectory)
-    for name in names:
-        m = program.missions[name]
-        check_signals(trace, ir.signals(m.requirement))
-        sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
-        risk_json, results = run_risk(program, m, sol)
-        if risk_json is None:
-            continue
-        outdir = out or os.path.dirname(os.path.abspath(trajectory))
+    needed = set(ir.signals(m.requirement))
+    for f, _ in mission_specs(program, m).values():
+        needed |= ir.signals(f)
+    check_signals(trace, needed)
+    sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
+    try:
+        risk_json, results = run_risk(program, m, sol, dt=trace.dt)
+    except (RiskError, SamplingError) as e:
+        raise StlcError([Diagnostic("STL209", f"cannot assess the risk cases of `{m.name}`: "
+                                    f"{e}", m.span, "check the risk block's distributions")]
+                        ) from None
+    outdir = out or os.path.dirname(os.path.abspath(trajectory))
+    try:
         os.makedirs(outdir, exist_ok=True)
-        with open(os.path.join(outdir, "risk.json"), "w") as fh:
+        target = os.path.join(outdir, "risk.json")
+        with open(target + ".tmp", "w") as fh:
             json.dump(risk_json, fh, indent=2, allow_nan=False)
-        from stlc.risk import save_samples
-
+        os.replace(target + ".tmp", target)
         save_samples(os.path.join(outdir, "risk_samples.npz"), results)
-        _print_risk(risk_json)
+    except OSError as e:
+        raise StlcError([Diagnostic("STL601", f"cannot write the risk outputs to `{outdir}`: "
+                                    f"{e.strerror or e}", Span(path, 1, 1, 1, 2),
+                                    "pass a writable directory with -o DIR")]) from None
+    print(risk_table(risk_json, trace.path))
+    print(f"→ {target}")
+    if trace.n > 1 and abs(trace.dt - m.step) > 1e-9 * m.step:
+        print(f"note: the trajectory's step is {trace.dt:g} s, the mission's {m.step:g} s; "
+              "windows were taken at the trajectory's step", file=sys.stderr)
     return EXIT_OK
 
 
-def _print_risk(risk_json: dict) -> None:
-    for c in risk_json["cases"]:
-        var = "  ".join(f"VaR{b}={v['value']:+.3f}" for b, v in c["var"].items())
-        print(f"{c['name']}: K={c['K']}  p_violation={c['p_violation']['value']:.3f}  {var}")
+def risk_table(risk_json: dict, source: str = "") -> str:
+    """A short text table: per case, P(violation) with its upper bound, VaR_β and CVaR_β of
+    the exact robustness (bounds are in ``risk.json``) and the driving spec."""
+    cases = risk_json.get("cases", [])
+    if not cases:
+        return "no risk cases"
+    betas = list(cases[0]["var"])
+    head = [f"mission {risk_json.get('mission', '?')}"
+            + (f" on {source}" if source else "")
+            + f": K = {cases[0]['K']}, δ = {cases[0]['delta']:g}, seed {cases[0]['seed']}"]
+    cols = (["case", "P(viol)", "≤ upper"] + [f"VaR{b}" for b in betas]
+            + [f"CVaR{b}" for b in betas] + ["driver"])
+    rows = []
+    for c in cases:
+        pv = c["p_violation"]
+        rows.append([c["name"], _fmt(pv["value"]), _fmt(pv["upper"])]
+                    + [_fmt(c["var"][b]["value"], signed=True) for b in betas]
+                    + [_fmt(c["cvar"][b]["value"], signed=True) for b in betas]
+                    + [c.get("driver") or "-"])
+    widths = [max(len(r[i]) for r in [cols, *rows]) for i in range(len(cols))]
+    lines = ["  ".join(x.ljust(w) if i in (0, len(cols) - 1) else x.rjust(w)
+                       for i, (x, w) in enumerate(zip(r, widths, strict=True))).rstrip()
+             for r in [cols, *rows]]
+    return "\n".join(head + lines)
+
+
+def _fmt(x, signed: bool = False) -> str:
+    if x is None:
+        return "-"
+    return f"{x:+.4f}" if signed else f"{x:.4f}"

@@ -97,8 +97,10 @@ def _energy(inv, w) -> tuple[float, np.ndarray]:
 
 
 def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> Solution:
-    """Raw solver output → Solution in mission-level names, judged by the exact monitor."""
+    """Raw solver output → Solution in mission-level names, judged by the exact monitor
+    (and satisfied only if the plan also obeys the discrete dynamics)."""
     from stlc import monitor, smooth
+    from stlc.backends import casadi_nlp
 
     dt = inv.grid.dt
     lam = raw.lam
@@ -121,20 +123,26 @@ def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> So
             line=span.line)
     energy, profile = _energy(inv, w)
     last = raw.stages[-1] if raw.stages else None
-    failed = all(s.status == "failed" for s in raw.stages)
-    status = "satisfied" if exact > 0 else ("solver_failed" if failed else "violated")
+    defect = casadi_nlp.dynamics_defect(w, inv, str(mission.options.get("integrator", "rk4")))
+    feasible = defect <= casadi_nlp.FEASIBLE_DEFECT
+    failed = not feasible or all(s.status == "failed" for s in raw.stages)
+    status = "satisfied" if exact > 0 and feasible else ("solver_failed" if failed else "violated")
     sol = Solution(
         mission=mission.name, status=status, robustness_exact=exact,
         robustness_smooth=smooth_v, specs=specs, energy=energy,
         times=inv.grid.times(), channels=ch,
         solver={"name": "ipopt (casadi)", "iterations": sum(s.iterations for s in raw.stages),
                 "return_status": last.status if last else "not_run",
+                "max_dynamics_defect": defect,
                 "stages": [vars(s) for s in raw.stages]},
         smoothing={"method": method, "lambda": mission.smoothing.lam, "lambda_final": lam,
                    "threshold": mission.threshold},
         problem_size={"samples": inv.grid.n, "variables": prob.n_vars,
                       "constraints": prob.n_cons, "aux": inv.aux_slice.stop -
                       inv.aux_slice.start})
+    if not feasible:
+        sol.notes.append(f"the solver found no dynamically feasible plan (largest dynamics "
+                         f"defect {defect:.2e} > {casadi_nlp.FEASIBLE_DEFECT:g})")
     if lam != mission.smoothing.lam:
         sol.notes.append(f"the smoothing λ was raised from {mission.smoothing.lam:g} to {lam:g} "
                          "(the smooth robustness under-estimates by up to ln(n)/λ)")

@@ -2,7 +2,9 @@
 
 The plan (channels) is fixed; the human pose is drawn K times (``stlc.sampling``) and the
 robustness ρ of the requirement and of every named spec is evaluated for all K realisations
-at once through the monitor's parameter broadcasting.  The risk measures are defined on the
+at once through the monitor's parameter broadcasting, in one shared, demand-driven
+evaluation (``shared_robustness``: ``stlc.monitor.Demand`` and ``stlc.smooth.SmoothDemand``
+over chunks of realisations).  The risk measures are defined on the
 *cost* Z = −ρ, as in the paper, and reported back in robustness terms.
 
 Conventions (r_(1) ≤ … ≤ r_(K) are the sorted robustness samples, F̂ the empirical CDF of ρ)
@@ -28,6 +30,11 @@ Conventions (r_(1) ≤ … ≤ r_(K) are the sorted robustness samples, F̂ the 
   is −inf; by default [L, U] is the observed sample range [r_(1), r_(K)] (an empirical
   assumption, recorded as ``cvar_support = "sample"``); pass ``support`` for a rigorous one.
 * Unbounded ends are ±inf in the Python results and ``null`` in JSON.
+* Rounding never breaks the order of the results: CVaR ``lower ≤ value ≤ upper`` and the
+  CVaR value lies between r_(1) and r_(⌈(1−β)K⌉) (so it never exceeds the VaR value).
+* ``to_json`` adds ``histogram`` (``robustness_histogram``: 40 bins over the finite exact
+  ρ of the requirement, ±inf counted apart) and ``driver`` (the spec that is tightest in
+  most violating realisations, ``violation_drivers``/``main_driver``).
 * p_violation: fraction of ρ ≤ 0, with a one-sided Clopper–Pearson upper bound at
   confidence 1 − δ, computed without scipy (regularised incomplete beta by continued
   fraction, inverted by bisection).
@@ -54,7 +61,8 @@ from stlc.sampling import (
 __all__ = [
     "CaseResult", "RiskError", "SamplingError", "clopper_pearson_upper", "cvar_bounds",
     "dkw_margin", "evaluate_case", "evaluate_risk", "human_frame_point", "run_cases",
-    "p_violation", "sample_params", "save_samples", "scenario_distributions", "var_bounds",
+    "p_violation", "robustness_histogram", "sample_params", "save_samples",
+    "scenario_distributions", "shared_robustness", "var_bounds",
 ]
 
 
@@ -150,10 +158,14 @@ def cvar_bounds(rho, beta: float, delta: float,
     a = 1.0 - beta
     m = _units(a, K)
     e = _units(eps, K)
-    value = _integral(r, 0.0, m) / m
+    # the mean of the worst m samples lies between the smallest and the ⌈m⌉-th (so never
+    # above the VaR at the same β), which rounding of the weighted sum must not break
+    value = min(max(_integral(r, 0.0, m) / m, float(r[0])), float(r[max(math.ceil(m), 1) - 1]))
     lower = (_mass_term(min(e, m), lo_s) + _integral(r, 0.0, m - e)) / m
     upper = (_integral(r, e, m + e) + _mass_term(m + e - K, hi_s)) / m
-    return {"value": value, "lower": lower, "upper": upper}
+    # lower ≤ value ≤ upper holds exactly (stochastic dominance); the three weighted sums
+    # round differently (e.g. equal samples), so the order is restored explicitly
+    return {"value": value, "lower": min(lower, value), "upper": max(upper, value)}
 
 
 # --------------------------------------------------------------------------- p(violation)
@@ -275,10 +287,41 @@ class CaseResult:
             "p_violation": _json(ex["p_violation"]),
             "mean": _num(ex["mean"]), "min": _num(ex["min"]), "max": _num(ex["max"]),
             "specs": _json(self.spec_summary), "drivers": _json(self.drivers),
+            "driver": main_driver(self.drivers),
+            "histogram": robustness_histogram(self.exact["requirement"]),
         }
         if self.smooth_summary:
             out["smooth"] = _json(self.smooth_summary)
         return out
+
+
+#: bins of the exact-robustness histogram in ``risk.json``
+HIST_BINS = 40
+
+
+def robustness_histogram(rho, bins: int = HIST_BINS) -> dict:
+    """``{"edges": [bins + 1], "counts": [bins], "neg_inf": n, "pos_inf": n}``: a histogram
+    of the finite values of ``rho`` over their range (a degenerate range is widened by
+    ±0.5e-3); infinite values are counted apart, and no finite value gives empty lists."""
+    r = np.asarray(rho, dtype=float).ravel()
+    fin = r[np.isfinite(r)]
+    out = {"edges": [], "counts": [], "neg_inf": int(np.count_nonzero(np.isneginf(r))),
+           "pos_inf": int(np.count_nonzero(np.isposinf(r)))}
+    if fin.size:
+        lo, hi = float(fin.min()), float(fin.max())
+        if hi - lo < 1e-12:
+            lo, hi = lo - 0.5e-3, hi + 0.5e-3
+        counts, edges = np.histogram(fin, bins=bins, range=(lo, hi))
+        out["edges"] = [float(e) for e in edges]
+        out["counts"] = [int(c) for c in counts]
+    return out
+
+
+def main_driver(drivers: Mapping[str, Mapping]) -> str | None:
+    """The named spec that is the tightest in most violating realisations (first declared on
+    ties), or ``None`` when nothing is violated."""
+    best = max(drivers.items(), key=lambda kv: kv[1]["count"], default=None)
+    return best[0] if best is not None and best[1]["count"] > 0 else None
 
 
 def _num(x: float) -> float | None:
@@ -377,13 +420,16 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
                   smooth_fn: RobustnessFn | None = None) -> CaseResult:
     """Sample the case's distributions (overriding ``base`` ones parameter by parameter),
     evaluate exact (and smooth) robustness of the requirement and every named spec for
-    all K realisations — one vectorised monitor call per formula — and summarise.
+    all K realisations and summarise.
 
-    ``robustness_fn``/``smooth_fn`` default to ``stlc.monitor.robustness`` and
-    ``stlc.smooth.smooth_robustness``.  All realisations use ``cfg.seed`` (common random
-    numbers across cases, so cases differ only by their distributions).  ``support``
-    bounds the exact ρ for its CVaR bounds (default, and always for the smooth ρ̃: the
-    sample range, see ``cvar_bounds``).
+    By default the formulas are evaluated together by ``shared_robustness`` (each shared
+    node once, only where it is needed, exact predicates reused by the smooth pass).  With
+    ``robustness_fn``/``smooth_fn`` (signature of ``stlc.monitor.robustness`` /
+    ``stlc.smooth.smooth_robustness``) each formula is one vectorised call instead; a
+    missing one of the two defaults to the ``stlc`` function.  All realisations use
+    ``cfg.seed`` (common random numbers across cases, so cases differ only by their
+    distributions).  ``support`` bounds the exact ρ for its CVaR bounds (default, and
+    always for the smooth ρ̃: the sample range, see ``cvar_bounds``).
     """
     K = cfg.K
     dists = merge_distributions(base, case.distributions)

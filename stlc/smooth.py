@@ -19,6 +19,11 @@ weighted mean is ``exp(LP - LD) - exp(LQ - LD)`` with ``LD = log Σ e^{λ a}`` a
 ``LP``/``LQ`` the same sums weighted by the positive/negative parts of ``a``.  Windows use
 the van Herk sliding reduction of the monitor (O(n) per window); ``until``/``release`` loop
 over window offsets in numpy (O(n·w)): this is a reference, not the fast path.
+
+The fast path is ``SmoothDemand`` / ``smooth_robustness_many`` (values at the first sample,
+demand-driven as ``monitor.Demand``): its aggregates (``_Soft``) shift by the largest lifted
+value and sum plain exponentials, one exp per operand and element, falling back to the
+``Aggregate`` above where an operand is infinite or a shifted sum underflows.
 """
 
 from __future__ import annotations
@@ -266,26 +271,41 @@ class _Soft:
         return self.sign * (m + np.log(d)) / self.lam
 
     # ---- reductions
-    def reduce(self, xs: list, finite: bool | None = None) -> np.ndarray:
-        """Smooth min/max of operands that broadcast together."""
+    def reduce(self, xs: list, finite: bool | None = None, seps=None) -> np.ndarray:
+        """Smooth min/max of operands that broadcast together.  ``seps[i]``, when given,
+        is operand i as ``t + p`` (``monitor._Sep``: time-only plus per-realisation part):
+        two or more such operands are reduced by a matrix product (``_sep_state``)."""
         xs = [np.asarray(x, dtype=float) for x in xs]
-        small = [x for x in xs if x.ndim < 2]
-        big = [x for x in xs if x.ndim >= 2]
         if not (_all_finite(xs) if finite is None else finite):
+            small = [x for x in xs if x.ndim < 2]
             states = ([self._group_state(small)] if small else []) + [
-                self._group_state([x]) for x in big]
+                self._group_state([x]) for x in xs if x.ndim >= 2]
             return self.value(self.merge(states))
+        small, big, group = [], [], []
+        for x, sp in zip(xs, seps or [None] * len(xs), strict=True):
+            if x.ndim < 2:
+                small.append(x)
+            elif (sp is not None and np.ndim(sp.t) == 1 and np.ndim(sp.p) == 2
+                  and np.shape(sp.p)[1] == 1):
+                group.append((x, sp))
+            else:
+                big.append(x)
+        states = [self._group_state(small)] if small else []
+        st = self._sep_state([sp for _, sp in group]) if len(group) > 1 else None
+        if st is None:
+            big += [x for x, _ in group]
+        else:
+            states.append(st)
         if not big:
-            return self.value(self._group_state(small))
-        # fast path: M from the extreme operand, then one exp per operand, in place
+            return self._finish(*self._merge_finite(states))
+        # M from the extreme operand, then one exp per operand and element, in place
         lam = self.sign * self.lam
         m = big[0]
         for x in big[1:]:
             m = self.ext(m, x)
         m = m * lam  # a new array: max of u over the big operands
-        s_state = self._group_state(small) if small else None
-        if s_state is not None:
-            np.maximum(m, s_state[0], out=m)
+        for st in states:
+            np.maximum(m, st[0], out=m)
         t = np.empty(m.shape)
         d = nn = None
         for x in big:
@@ -296,12 +316,50 @@ class _Soft:
             if self.gkl:
                 t *= x
                 nn = t.copy() if nn is None else np.add(nn, t, out=nn)
-        if s_state is not None:
-            scale = np.exp(s_state[0] - m)
-            d += s_state[1] * scale
+        for st_m, st_d, st_n in states:
+            scale = np.exp(st_m - m)
+            d += st_d * scale
             if self.gkl:
-                nn += s_state[2] * scale
+                nn += st_n * scale
         return self._finish(m, d, nn)
+
+    def _merge_finite(self, states: list):
+        if len(states) == 1:
+            return states[0]
+        m = states[0][0]
+        for st in states[1:]:
+            m = np.maximum(m, st[0])
+        d = nn = 0.0
+        for st_m, st_d, st_n in states:
+            scale = np.exp(st_m - m)
+            d = d + st_d * scale
+            if self.gkl:
+                nn = nn + st_n * scale
+        return m, d, (nn if self.gkl else None)
+
+    def _sep_state(self, seps: list):
+        """State of finite operands ``x_j = t_j + p_j`` (t_j shape (n,), p_j shape (K, 1)):
+        ``e^(u_j − M) = e^(λ t_j − T) · e^(λ p_j − P)`` with ``T = max_j λ t_j`` and
+        ``P = max_j λ p_j`` (signs folded into λ), so ``D = A B`` and
+        ``N = A (t∘B) + (p∘A) B`` are (K, J) × (J, n) matrix products instead of J
+        exponentials over (K, n).  ``None`` (use the operands one by one) when a sum falls
+        below ``TINY``: the two shifts are too far from the largest term."""
+        lam = self.sign * self.lam
+        tt = np.stack([sp.t for sp in seps])  # (J, n)
+        pp = np.concatenate([sp.p for sp in seps], axis=1)  # (K, J)
+        ut, up = lam * tt, lam * pp
+        big_t = np.max(ut, axis=0)
+        big_p = np.max(up, axis=1, keepdims=True)
+        b = np.exp(ut - big_t)
+        a = np.exp(up - big_p)
+        # einsum, not ``@``: a multi-threaded BLAS (numpy imported before stlc) on a busy
+        # machine made these small products 100x slower; einsum's own loop is steady
+        d = np.einsum("kj,jt->kt", a, b)
+        if not np.min(d) >= TINY:
+            return None
+        nn = (np.einsum("kj,jt->kt", np.concatenate([a, pp * a], axis=1),
+                        np.concatenate([tt * b, b], axis=0)) if self.gkl else None)
+        return big_p + big_t, d, nn
 
     def along(self, x: np.ndarray, finite: bool | None = None) -> np.ndarray:
         """Smooth min/max along the last axis (kept, with length 1)."""
@@ -424,10 +482,12 @@ class SmoothDemand(Demand):
         self.smin = smin(lam)
         self.smax = smax_gkl(lam) if gkl else smax_lse(lam)
 
-    def conj(self, kids: list, is_and: bool, finite: bool) -> np.ndarray:
+    separated = True
+
+    def conj(self, kids: list, is_and: bool, finite: bool, seps=None) -> np.ndarray:
         if len(kids) == 1:
             return kids[0]
-        return (self.soft_min if is_and else self.soft_max).reduce(kids, finite)
+        return (self.soft_min if is_and else self.soft_max).reduce(kids, finite, seps)
 
     def window(self, x: np.ndarray, width: int, length: int, is_min: bool,
                finite: bool) -> np.ndarray:

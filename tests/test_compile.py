@@ -192,9 +192,11 @@ def test_handover_mission_plans_satisfying(handover_plans, name):
 # * against a hand-written classic RK4 step on the plain-numpy ODE: the NLP's own scheme,
 #   so the defect is the solver's feasibility tolerance (≤ 1e-6) — this is exact;
 # * against scipy's DOP853 at tight tolerances (the continuous dynamics): the defect is
-#   RK4's discretisation error.  At the missions' own 0.1 s step it is ~1e-6 m.  At 0.5 s
-#   (one RK4 step per interval, as the backend builds it) it is 3-4 cm on the
-#   handover_front plan — far above the 1e-3 m the issue expected (see the xfail below).
+#   RK4's discretisation error.  At the missions' own 0.1 s step it is ~1e-6 m.  Coarser
+#   grids are integrated with RK4 sub-steps of at most 0.1 s (``casadi_nlp.substeps``);
+#   with one step per 0.5 s interval the defect was 3-4 cm.
+
+from stlc.backends.casadi_nlp import substeps  # noqa: E402
 
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
 
@@ -225,8 +227,11 @@ def interval_defects(trace, v: model.Multirotor, method: str) -> np.ndarray:
     assert F.min() >= v.force_min - 1e-6 and F.max() <= v.force_max + 1e-6
     out = []
     for k in range(trace.n - 1):
-        if method == "rk4":
-            x_next = rk4_step(f, X[k], U[k], trace.dt)
+        if method == "rk4":  # the transcription: substeps(dt) RK4 steps per interval
+            m = substeps(trace.dt)
+            x_next = X[k]
+            for _ in range(m):
+                x_next = rk4_step(f, x_next, U[k], trace.dt / m)
         else:
             r = solve_ivp(lambda _t, x, u=U[k]: f(x, u), (0.0, trace.dt), X[k],
                           method="DOP853", rtol=1e-11, atol=1e-11)
@@ -267,9 +272,6 @@ def test_multirotor_plan_resimulates_at_full_step(tmp_path):
     assert d["forces"] < 1e-6  # ξ̇ = u is integrated exactly
 
 
-@pytest.mark.xfail(strict=True, reason="one RK4 step per 0.5 s interval is 3-4 cm off the "
-                   "continuous dynamics on the handover_front plan (issue asked < 1e-3 m); "
-                   "the backend does not sub-step coarse grids")
 def test_multirotor_plan_resimulates_at_half_second(handover_plans, handover_program,
                                                     tmp_path):
     sol, *_ = handover_plans("handover_front")
@@ -278,6 +280,18 @@ def test_multirotor_plan_resimulates_at_half_second(handover_plans, handover_pro
                        interval_defects(trace, handover_program.vehicles["uav1"], "ivp"))
     assert d["forces"] < 1e-6
     assert d["position"] < 1e-3
+
+
+def test_plan_cut_short_is_never_reported_satisfied_when_infeasible(tmp_path):
+    """A plan whose status is ``satisfied`` must be dynamically feasible: stop IPOPT after
+    3 iterations (``max_iter``) and check the reported trajectory against its own RK4 step."""
+    text = CLIMB.read_text(encoding="utf-8").replace("step = 0.1 s", "step = 0.1 s\n  max_iter = 3")
+    program = load_source(tmp_path, text)
+    sol, *_ = plan(program, program.missions["climb"])
+    d = interval_defects(plan_trace(sol, tmp_path), program.vehicles["uav1"], "rk4")
+    print(f"\nmax_iter = 3: {sol.status}, exact {sol.robustness_exact:+.4f}, "
+          f"max dynamics defect {d.max():.2e}")
+    assert sol.status != "satisfied" or d.max() < 1e-5
 
 
 # ------------------------------------------------------------------ every shipped spec
