@@ -126,10 +126,7 @@ class Elaborator(FormulaElaborator):
                      if not isinstance(v, Num) else f"expected a single number for {what}",
                      node.span)
             return None
-        if want is not None and not units.compatible(v.dim, want):
-            self.err("STL204", f"unit mismatch: {what} must be {units.describe(want)}, "
-                     f"found {units.describe(v.dim)}", node.span,
-                     f"write it like `{_example(want)}`")
+        if not self._unit_ok(v, want, what, node.span, f"write it like `{_example(want)}`"):
             return None
         return float(v.v)
 
@@ -150,12 +147,18 @@ class Elaborator(FormulaElaborator):
                 self.err("STL205", f"{what} needs {n} components, found {arr.size}", node.span,
                          f"write {n} numbers in parentheses, e.g. ({', '.join(['0'] * n)})")
                 return None
-        if want is not None and not units.compatible(v.dim, want):
-            self.err("STL204", f"unit mismatch: {what} must be {units.describe(want)}, "
-                     f"found {units.describe(v.dim)}", node.span,
-                     f"add the unit, e.g. `{_example(want)}`")
+        if not self._unit_ok(v, want, what, node.span, f"add the unit, e.g. `{_example(want)}`"):
             return None
         return arr
+
+    def _unit_ok(self, v: Num, want: units.Dim | None, what: str, span: Span,
+                 help: str) -> bool:
+        """Report STL204 unless the constant ``v`` has the dimension ``want`` (or none)."""
+        if want is None or units.compatible(v.dim, want):
+            return True
+        self.err("STL204", f"unit mismatch: {what} must be {units.describe(want)}, "
+                 f"found {units.describe(v.dim)}", span, help)
+        return False
 
     # ------------------------------------------------------------ generic evaluation
     def value(self, node: ast.Node, scope: Scope) -> Value:
