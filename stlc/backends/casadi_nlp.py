@@ -31,7 +31,6 @@ from stlc.backends.smooth_casadi import LoweredRobustness, lower_robustness
 from stlc.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
-STATE_REG = float(os.environ.get("STLC_SREG", 0.0))
 #: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
 #: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
 #: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
@@ -76,11 +75,9 @@ def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
         u_lo[:], u_hi[:] = -r, r
     return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
 IPOPT_DEFAULTS = {
-    "ipopt.print_level": int(os.environ.get("STLC_PL", 0)), "ipopt.sb": "yes", "print_time": False,
-    "ipopt.tol": float(os.environ.get("STLC_TOL", 1e-6)),
-    "ipopt.acceptable_tol": float(os.environ.get("STLC_ATOL", 1e-4)),
-    "ipopt.acceptable_iter": int(os.environ.get("STLC_AITER", 10)),
-    "ipopt.mu_strategy": os.environ.get("STLC_MU", "adaptive"), "ipopt.linear_solver": "mumps",
+    "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
+    "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4, "ipopt.acceptable_iter": 10,
+    "ipopt.mu_strategy": "adaptive", "ipopt.linear_solver": "mumps",
 }
 #: IPOPT's return statuses mapped to the shared solver status
 STATUS_MAP = {
@@ -188,8 +185,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     formula = ir.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     lowered = lower_robustness(formula, grid, chans, program.params, lam,
-                               method=mission.smoothing.method,
-                               hypograph=os.environ.get("STLC_HYPO", "0") == "1")
+                               method=mission.smoothing.method)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
     g_list, lbg, ubg = [], [], []
@@ -217,8 +213,6 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         ubx[start:start + L.nx] = x0
         reg += ca.sumsqr(U) / N
         if isinstance(v, model.Multirotor):
-            reg += STATE_REG * (ca.sumsqr(X[9:12, :]) + ca.sumsqr(X[3:5, :])) / n
-        if isinstance(v, model.Multirotor):
             xs = ca.SX.sym("x", L.nx)
             e_fn = ca.Function("e", [xs], [dynamics.energy_terms(v, xs, grid.dt)]).map(n)
             energy += ca.sum2(e_fn(X))
@@ -238,6 +232,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg
     nlp = {"x": w, "p": p, "f": obj, "g": g}
     opts = dict(IPOPT_DEFAULTS)
+    # developer knob: extra solver options as JSON, e.g. STLC_IPOPT='{"ipopt.print_level": 5}'
     opts.update(json.loads(os.environ.get("STLC_IPOPT", "{}")))
     opts["ipopt.max_iter"] = int(mission.options.get("max_iter", 1000))
     root_fn = ca.Function("root", [w, p], [lowered.root])
