@@ -113,7 +113,6 @@ class NlpProblem:
     n_cons: int
     root_fn: ca.Function  # w, p -> smooth robustness (lifted root)
     progress: Progress
-    energy_fn: ca.Function  # w -> Σ energy terms (objective units)
     lowered: LoweredRobustness
     build_s: float
 
@@ -123,7 +122,6 @@ class InverseData:
     grid: TimeGrid
     layouts: list[Layout]
     aux_slice: slice
-    channel_names: list[str]
     formula: ir.Formula  # the normalised requirement
 
 
@@ -239,12 +237,10 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)
     opts["iteration_callback"] = progress
     solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
-    energy_fn = ca.Function("energy", [w], [energy])
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
-                      n_dyn, w.numel(), g.numel(), root_fn, progress, energy_fn, lowered,
+                      n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
                       time.perf_counter() - t0)
-    chan_names = [c for L in layouts for c in L.vehicle.channels() + L.vehicle.input_channels()]
-    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), chan_names, formula)
+    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula)
     params = dict(program.params)
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:

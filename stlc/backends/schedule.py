@@ -13,10 +13,11 @@ is then position and velocity from this path, level attitude, zero rates, hover 
 **The smoothing gap and the λ schedule.**  A smooth min over n operands under-estimates by
 up to ln(n)/λ: with the papers' λ = 10 a satisfiable mission can have no positive smooth
 robustness at all.  The schedule solves at the mission's λ first and, while the exact monitor
-says "violated" or the smooth robustness is below κ, multiplies λ by ``LAM_FACTOR`` and
-re-solves from the previous optimum (the NLP has λ as a parameter, nothing is rebuilt), up to
-``LAM_MAX``.  Then, if the objective has energy terms, one more solve minimises
-``w·E − ρ̃`` subject to ``ρ̃ ≥ κ`` from the robust solution (paper A eq. 6).
+says "violated", multiplies λ by ``LAM_FACTOR`` and re-solves from the previous plan (the NLP
+has λ as a parameter, nothing is rebuilt), up to ``LAM_MAX``.  Every dynamically feasible
+iterate is checked by the exact monitor and the best one kept.  Then, if the objective has
+energy terms, one more solve minimises ``w·E − ρ̃`` subject to ``ρ̃ ≥ κ``, imposed at the
+smallest λ where the robust plan already meets κ (paper A eq. 6).
 """
 
 from __future__ import annotations
@@ -89,7 +90,6 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         P0 = np.tile(start, (n, 1)) + np.outer(s, [0.0, 0.15 * (1 if k % 2 == 0 else -1), 0.05])
         x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
         obj += 1e-2 * ca.sumsqr(A) / N
-    out: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     w = ca.vertcat(*syms)
     wx0 = np.concatenate(x0)
     if isinstance(f, ir.TrueF):
@@ -107,24 +107,26 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
                             "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
                             "ipopt.mu_strategy": "adaptive"})
         num_ch = {}
-        off = 0
-        for name in names:
-            P0 = wx0[off:off + 3 * n].reshape(n, 3).T
-            V0 = wx0[off + 3 * n: off + 6 * n].reshape(n, 3).T
+        for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
             for i, a in enumerate("xyz"):
                 num_ch[f"{name}.pos.{a}"], num_ch[f"{name}.vel.{a}"] = P0[i], V0[i]
-            off += 6 * n + 3 * N
         aux0, _ = low.init_values(num_ch, program.params, GUESS_LAM)
         sol = solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]),
                      lbx=np.concatenate(lbx + [np.full(low.aux.numel(), -np.inf)]),
                      ubx=np.concatenate(ubx + [np.full(low.aux.numel(), np.inf)]),
                      lbg=lbg, ubg=ubg)
         sol_w = np.asarray(sol["x"]).ravel()[: w.numel()]
-    off = 0
+    return _unpack(sol_w, names, n, N)
+
+
+def _unpack(w: np.ndarray, names: list[str], n: int, N: int
+            ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per vehicle (positions 3×n, velocities 3×n, accelerations 3×N) of a kinematic vector."""
+    out, off = {}, 0
     for name in names:
-        P = sol_w[off:off + 3 * n].reshape(n, 3).T
-        V = sol_w[off + 3 * n: off + 6 * n].reshape(n, 3).T
-        A = sol_w[off + 6 * n: off + 6 * n + 3 * N].reshape(N, 3).T
+        P = w[off:off + 3 * n].reshape(n, 3).T
+        V = w[off + 3 * n: off + 6 * n].reshape(n, 3).T
+        A = w[off + 6 * n: off + 6 * n + 3 * N].reshape(N, 3).T
         out[name] = (P, V, A)
         off += 6 * n + 3 * N
     return out
