@@ -18,7 +18,7 @@ import os
 import sys
 
 from stlc import ir, model
-from stlc.compile import mission_specs
+from stlc.planning.problem import mission_specs
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.solution import Solution
 
@@ -35,7 +35,7 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
     cfg = mission.risk
     if cfg is None:
         return None, None
-    specs = {k: ir.normalize(f) for k, (f, _) in mission_specs(program, mission).items()}
+    specs = {k: s.normal for k, s in mission_specs(program, mission).items()}
     base = tuple(d for h in program.scenario.humans for d in h.uncertain)
     results = riskmod.run_cases(cfg, ir.normalize(mission.requirement), specs,
                                 mission.step if dt is None else dt, sol.channels,
@@ -84,8 +84,8 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     m = _missions(path, program, mission)
     trace = read_trace(trajectory)
     needed = set(ir.signals(m.requirement))
-    for f, _ in mission_specs(program, m).values():
-        needed |= ir.signals(f)
+    for s in mission_specs(program, m).values():
+        needed |= ir.signals(s.formula)
     check_signals(trace, needed)
     sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
     try:

@@ -154,22 +154,19 @@ def _solver_stats() -> Iterator[list[dict]]:
 
 
 def _plan_once(program, mission, step: float | None, load_s: float) -> dict[str, float]:
-    from stlc.compile import plan
+    from stlc.pipeline import plan
 
     with _solver_stats() as stats:
         t0 = time.perf_counter()
-        sol, raw, _inv, prob = plan(program, mission, quiet=True, step=step)
+        _, sol = plan(program, mission, quiet=True, step=step)
         total = time.perf_counter() - t0 + load_s
-    if not stats:  # fall back to the last solve's stats
-        with contextlib.suppress(Exception):
-            stats.append(dict(prob.solver.stats()))
     ps, tm = sol.problem_size, sol.timing
     row = {
-        "samples": ps.get("samples", 0), "variables": ps.get("variables", prob.n_vars),
-        "constraints": ps.get("constraints", prob.n_cons),
+        "samples": ps.get("samples", 0), "variables": ps.get("variables", 0),
+        "constraints": ps.get("constraints", 0),
         "build_s": tm.get("build_s", 0.0), "guess_s": tm.get("guess_s", 0.0),
         "solve_s": tm.get("solve_s", 0.0), "total_s": total,
-        "iterations": sol.solver.get("iterations", 0), "stages": len(raw.stages),
+        "iterations": sol.solver.get("iterations", 0), "stages": len(sol.solver.get("stages", [])),
         "exact": sol.robustness_exact, "smooth": sol.robustness_smooth, "energy": sol.energy,
         "satisfied": float(sol.status == "satisfied"),  # summed, not medianed
     }

@@ -123,7 +123,7 @@ def cmd_monitor(args) -> int:
 
 
 def cmd_compile(args) -> int:
-    from stlc.compile import compile_file
+    from stlc.pipeline import compile_file
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
                         risk=not args.no_risk)

@@ -1,10 +1,15 @@
-"""The pipeline: orders the passes (parse → check → backend → Solution → outputs).
+"""The pipeline: the one place that orders the passes.
 
-Each function here only calls passes in order and times them; the work is in the passes.
+load (parse → check) → planning problem → backend chain → verification (exact monitor) →
+risk → outputs.  ``stlc compile``, ``stlc risk``, ``stlc monitor`` and the benchmarks all
+go through here; each function only calls passes in order and times them, the work is in
+the passes.  Outputs are written once, after everything they contain exists.
 """
 
 from __future__ import annotations
 
+import os
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -12,7 +17,7 @@ import numpy as np
 
 from stlc import ir, model
 from stlc.check import check
-from stlc.diagnostics import Diagnostic, StlcError
+from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.syntax import parse_file
 
 
@@ -79,3 +84,82 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
 
 def as_float(x) -> float:
     return float(np.asarray(x).reshape(-1)[0])
+
+
+# ---------------------------------------------------------------- planning
+
+
+def backend_chain(problem, quiet: bool = True) -> list:
+    """The backends that plan ``problem``, in order (seed first)."""
+    from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
+
+    return [KinematicGuess(), CasadiNlp(quiet=quiet)]
+
+
+def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
+         step: float | None = None, horizon: float | None = None):
+    """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
+    from stlc.backends.base import run_chain
+    from stlc.planning.problem import from_mission
+    from stlc.planning.verify import verify
+
+    problem = from_mission(program, mission, step=step, horizon=horizon)
+    sol, _ = run_chain(problem, backend_chain(problem, quiet))
+    t0 = time.perf_counter()
+    verify(problem, sol)
+    sol.timing["verify_s"] = time.perf_counter() - t0
+    return problem, sol
+
+
+def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
+    """Run the mission's risk cases on the plan; results go onto the Solution (in memory)."""
+    from stlc.assess import run_risk
+
+    t0 = time.perf_counter()
+    sol.risk, sol.risk_results = run_risk(program, mission, sol)
+    sol.timing["risk_s"] = time.perf_counter() - t0
+
+
+def select_missions(path: str, program: model.Program, name: str | None) -> list:
+    if name is not None:
+        if name not in program.missions:
+            raise StlcError([Diagnostic("STL101", f"no mission `{name}` in {path}",
+                                        Span(path, 1, 1, 1, 2),
+                                        did_you_mean(name, program.missions) or
+                                        "missions: " + ", ".join(program.missions))])
+        return [program.missions[name]]
+    if not program.missions:
+        raise StlcError([Diagnostic("STL109", f"{path} declares no mission to compile",
+                                    Span(path, 1, 1, 1, 2),
+                                    "add `mission NAME { ... }`, or use `stlc monitor`")])
+    return list(program.missions.values())
+
+
+def compile_file(path: str, out: str | None = None, mission: str | None = None,
+                 quiet: bool = False, risk: bool = True) -> int:
+    """``stlc compile``: every selected mission planned, verified, assessed, written."""
+    from stlc import compile as outputs
+
+    t0 = time.perf_counter()
+    loaded = load(path)
+    program = loaded.program
+    missions = select_missions(path, program, mission)
+    several = len(missions) > 1
+    code = outputs.EXIT_OK
+    for m in missions:
+        t1 = time.perf_counter()
+        _, sol = plan(program, m, quiet=quiet)
+        sol.timing.update(loaded.timing)
+        if risk and m.risk is not None:
+            assess_risk(program, m, sol)
+        sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
+        base = out if out is not None else "reports"
+        outdir = os.path.join(base, m.name) if (several or out is None) else base
+        outputs.write_outputs(outdir, program, m, sol)
+        if not quiet or sol.status != "satisfied":
+            outputs.summary(sol, outdir)
+        if sol.status != "satisfied":
+            code = outputs.EXIT_UNSAT
+    if not quiet:
+        print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return code

@@ -493,6 +493,11 @@ def save_samples(path_npz, results: Sequence[CaseResult]) -> None:
     ``<case>/exact/spec:<name>``, ``<case>/smooth/…`` (same), ``<case>/param/<param>``,
     ``<case>/meta`` = [K, delta, seed, epsilon] and ``<case>/betas``.
     """
+    np.savez_compressed(path_npz, **sample_arrays(results))
+
+
+def sample_arrays(results: Sequence[CaseResult]) -> dict[str, np.ndarray]:
+    """The per-realisation arrays of ``save_samples``, in memory (keys as there)."""
     arrays: dict[str, np.ndarray] = {"cases": np.array([r.name for r in results])}
     for r in results:
         for kind, d in (("exact", r.exact), ("smooth", r.smooth), ("param", r.params)):
@@ -500,4 +505,4 @@ def save_samples(path_npz, results: Sequence[CaseResult]) -> None:
                 arrays[f"{r.name}/{kind}/{k}"] = np.asarray(v)
         arrays[f"{r.name}/meta"] = np.array([r.K, r.delta, r.seed, r.epsilon], dtype=float)
         arrays[f"{r.name}/betas"] = np.array(r.betas, dtype=float)
-    np.savez_compressed(path_npz, **arrays)
+    return arrays

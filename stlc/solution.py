@@ -7,6 +7,7 @@ and ``trajectory.csv`` are written from it and never see a solver object.
 from __future__ import annotations
 
 import csv
+import enum
 import io
 import json
 import math
@@ -15,6 +16,14 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 STATUSES = ("satisfied", "violated", "solver_failed")
+
+
+class Verdict(enum.StrEnum):
+    """What the exact monitor says of a plan (``Solution.status``)."""
+
+    SATISFIED = "satisfied"
+    VIOLATED = "violated"
+    SOLVER_FAILED = "solver_failed"  # no dynamically feasible plan came out of the solver
 
 
 @dataclass
@@ -27,6 +36,36 @@ class SpecResult:
     tightest_time: float | None = None  # time of the sample whose predicate binds
     binding_predicate: str = ""  # label of the predicate that decides the robustness
     line: int = 0  # source line of the spec definition
+
+
+@dataclass
+class Comparison:
+    """A second plan of the same mission (``compare NAME { ... }``, or a team seed)."""
+
+    label: str
+    channels: dict[str, np.ndarray]
+    energy: float = 0.0
+    energy_profile: np.ndarray | None = None
+    robustness_exact: float | None = None  # set by verification
+    specs: dict[str, float] = field(default_factory=dict)  # exact robustness per named spec
+    peak_speed: float | None = None
+    peak_rotor_speed: float | None = None
+
+    def to_json_dict(self) -> dict:
+        return {"label": self.label, "energy": _num(self.energy),
+                "robustness_exact": _num(self.robustness_exact),
+                "specs": {k: _num(v) for k, v in self.specs.items()},
+                "peak_speed": _num(self.peak_speed),
+                "peak_rotor_speed": _num(self.peak_rotor_speed)}
+
+
+@dataclass(frozen=True, slots=True)
+class Window:
+    """The outermost time window of a named spec (shaded on the report's plots)."""
+
+    spec: str
+    start: float
+    end: float
 
 
 @dataclass
@@ -45,19 +84,23 @@ class Solution:
     smoothing: dict[str, object] = field(default_factory=dict)  # method, lam, schedule
     problem_size: dict[str, int] = field(default_factory=dict)  # variables, constraints, samples
     notes: list[str] = field(default_factory=list)
-    extra: dict[str, object] = field(default_factory=dict)  # e.g. energy_profile, comparisons
+    #: energy of each sample (J, summing to ``energy``), None without an energy model
+    energy_profile: np.ndarray | None = None
+    comparisons: list[Comparison] = field(default_factory=list)
+    #: limits drawn on the report's signal plots, from the vehicles and the predicates
+    bounds: dict[str, object] = field(default_factory=dict)
+    windows: list[Window] = field(default_factory=list)
+    feasible: bool = True  # the plan obeys the vehicles' dynamics (backend's own test)
+    risk: dict | None = None  # risk.json contents, when the mission's risk cases ran
+    risk_results: list | None = None  # per-realisation samples (in memory, for the report)
+    #: located findings about the plan (e.g. STL501 at the failing spec), shown in the report
+    diagnostics: list = field(default_factory=list)
 
     def to_json_dict(self) -> dict:
-        def num(x):
-            if x is None:
-                return None
-            x = float(x)
-            return x if math.isfinite(x) else (None if math.isnan(x) else
-                                               (1e308 if x > 0 else -1e308))
-
+        num = _num
         return {
             "mission": self.mission,
-            "status": self.status,
+            "status": str(self.status),
             "robustness": {"exact": num(self.robustness_exact),
                            "smooth": num(self.robustness_smooth)},
             "specs": {
@@ -70,8 +113,7 @@ class Solution:
             "smoothing": self.smoothing,
             "problem_size": self.problem_size,
             "notes": self.notes,
-            "comparisons": [{k: v for k, v in c.items() if k != "energy_profile"}
-                            for c in self.extra.get("comparisons", [])],
+            "comparisons": [c.to_json_dict() for c in self.comparisons],
             "peak": {"speed": _peak(self.channels, ".speed"),
                      "rotor_speed": _peak(self.channels, ".rotor_speed.")},
         }
@@ -87,6 +129,14 @@ class Solution:
         for k, t in enumerate(self.times):
             w.writerow([f"{t:.6g}", *(f"{self.channels[c][k]:.9g}" for c in names)])
         return buf.getvalue()
+
+
+def _num(x) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else (None if math.isnan(x) else
+                                       (1e308 if x > 0 else -1e308))
 
 
 def _peak(channels: dict[str, np.ndarray], key: str) -> float | None:

@@ -1,4 +1,4 @@
-"""Planning end to end (``stlc.compile.plan``) against independently computed values.
+"""Planning end to end (``stlc.pipeline.plan``) against independently computed values.
 
 * small point-mass missions whose optimal exact robustness follows from the per-axis
   velocity/acceleration bounds by hand;
@@ -18,7 +18,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from stlc import dynamics, ir, model, monitor
-from stlc.compile import compile_file, plan
+from stlc.pipeline import compile_file, plan
 from stlc.diagnostics import StlcError
 from stlc.pipeline import load
 from stlc.trace import read_trace
@@ -83,7 +83,7 @@ KNOWN_OPTIMA = [
                          ids=[k[0] for k in KNOWN_OPTIMA])
 def test_known_optimal_robustness(tmp_path, name, require, horizon, optimum, good_enough):
     program = load_source(tmp_path, mission_source(require, horizon))
-    sol, raw, inv, prob = plan(program, program.missions["m"])
+    _, sol = plan(program, program.missions["m"])
     assert sol.status == "satisfied"
     # the optimum bounds every plan from above (up to the solver's tolerance) ...
     assert sol.robustness_exact <= optimum + 1e-6
@@ -110,7 +110,7 @@ def test_known_optimal_robustness(tmp_path, name, require, horizon, optimum, goo
 def test_impossible_mission_is_violated(tmp_path):
     """x ≥ 100 m in 3 s at ≤ 1 m/s: the farthest reachable is 2.75 m, so ρ* = -97.25."""
     program = load_source(tmp_path, mission_source("eventually[0, 3] (p.pos.x >= 100 m)", 3.0))
-    sol, raw, *_ = plan(program, program.missions["m"])
+    _, sol = plan(program, program.missions["m"])
     assert sol.status == "violated"
     assert sol.robustness_exact < 0
     assert -97.25 - 0.05 <= sol.robustness_exact <= -97.25 + 1e-6
@@ -119,7 +119,7 @@ def test_impossible_mission_is_violated(tmp_path):
     assert not goal.satisfied and goal.robustness < 0
     assert goal.binding_predicate.startswith("p.pos.x >= 100")
     assert goal.line > 0
-    assert raw.stages  # the solver ran (a violated plan, not a solver failure)
+    assert sol.solver["stages"]  # the solver ran (a violated plan, not a solver failure)
 
 
 # ------------------------------------------------------------------ shipped handover missions
@@ -163,7 +163,7 @@ def handover_plans(handover_program):
 
 @pytest.mark.parametrize("name", list(HANDOVER_STEPS))
 def test_handover_mission_plans_satisfying(handover_plans, name):
-    sol, raw, inv, prob, wall = handover_plans(name)
+    _, sol, wall = handover_plans(name)
     stages = ", ".join(f"{s['label']} λ={s['lam']:g} {s['iterations']} it {s['status']} "
                        f"exact {s['exact']:+.4f} ({s['solve_s']:.1f} s)"
                        for s in sol.solver["stages"])
@@ -251,7 +251,7 @@ def report_defects(label: str, d: np.ndarray) -> dict[str, float]:
 
 def test_multirotor_plan_matches_its_rk4_transcription(handover_plans, handover_program,
                                                       tmp_path):
-    sol, *_ = handover_plans("handover_front")  # planned at 0.5 s
+    _, sol, _ = handover_plans("handover_front")  # planned at 0.5 s
     trace = plan_trace(sol, tmp_path)
     assert trace.dt == pytest.approx(0.5)
     d = report_defects("handover_front, 0.5 s, numpy RK4",
@@ -261,7 +261,7 @@ def test_multirotor_plan_matches_its_rk4_transcription(handover_plans, handover_
 
 def test_multirotor_plan_resimulates_at_full_step(tmp_path):
     program = load(str(CLIMB)).program
-    sol, *_ = plan(program, program.missions["climb"])  # the mission's own 0.1 s step
+    _, sol = plan(program, program.missions["climb"])  # the mission's own 0.1 s step
     assert sol.status == "satisfied"
     trace = plan_trace(sol, tmp_path)
     assert trace.dt == pytest.approx(0.1)
@@ -274,7 +274,7 @@ def test_multirotor_plan_resimulates_at_full_step(tmp_path):
 
 def test_multirotor_plan_resimulates_at_half_second(handover_plans, handover_program,
                                                     tmp_path):
-    sol, *_ = handover_plans("handover_front")
+    _, sol, _ = handover_plans("handover_front")
     trace = plan_trace(sol, tmp_path)
     d = report_defects("handover_front, 0.5 s, scipy DOP853",
                        interval_defects(trace, handover_program.vehicles["uav1"], "ivp"))
@@ -287,7 +287,7 @@ def test_plan_cut_short_is_never_reported_satisfied_when_infeasible(tmp_path):
     3 iterations (``max_iter``) and check the reported trajectory against its own RK4 step."""
     text = CLIMB.read_text(encoding="utf-8").replace("step = 0.1 s", "step = 0.1 s\n  max_iter = 3")
     program = load_source(tmp_path, text)
-    sol, *_ = plan(program, program.missions["climb"])
+    _, sol = plan(program, program.missions["climb"])
     d = interval_defects(plan_trace(sol, tmp_path), program.vehicles["uav1"], "rk4")
     print(f"\nmax_iter = 3: {sol.status}, exact {sol.robustness_exact:+.4f}, "
           f"max dynamics defect {d.max():.2e}")
@@ -328,11 +328,14 @@ def test_every_spec_checks_and_compiles(fname):
         for m in program.missions.values():
             with pytest.raises(StlcError) as e:
                 plan(program, m)
-            codes = [d.code for d in e.value.diagnostics]
-            assert codes == ["STL401"]
-            d = e.value.diagnostics[0]
-            assert m.name in d.message and "payload" in d.message
-            assert d.span.file.endswith(fname) and d.span.line > 0
+            codes = {d.code for d in e.value.diagnostics}
+            assert codes == {"STL401"}
+            # one per payload predicate, each at the predicate's own line
+            for d in e.value.diagnostics:
+                assert "payload" in d.message
+                assert d.span.file.endswith(fname) and d.span.line > 0
+                line = path.read_text().splitlines()[d.span.line - 1]
+                assert "payload" in line
     elif outcome == "STL109":
         assert not program.missions
         with pytest.raises(StlcError) as e:

@@ -38,7 +38,7 @@ from stlc.report.common import num
 from stlc.report.predicates import predicate_line, readable
 from stlc.report.risk_view import MAX_BINS, MIN_BINS
 from stlc.report.scene import region_role, rotation
-from stlc.solution import Solution, SpecResult
+from stlc.solution import Comparison, Solution, SpecResult, Window
 
 FILE = "demo.stl"
 SOURCE = """\
@@ -170,18 +170,16 @@ def synthetic_case(status: str = "satisfied", risk: bool = True
                             f"uav1.pos.x >= -0.5 {NASTY}", 14),
     }
     power = sum(C_F * ch[f"uav1.rotor_speed.{i + 1}"] ** 6 for i in range(6)) * 1e-9
-    extra: dict = {
+    typed: dict = {
         "bounds": {"speed": [0.0, 2.0], "rotor_speed": [40.0, 80.0], "force": [0.29, 11.5],
                    "heading_margin_deg": 30.0},
-        "windows": [{"spec": "safe", "start": 0.0, "end": 2.0},
-                    {"spec": "reach", "start": 1.0, "end": 2.0}],
-        "energy_profile": power.tolist(),
-        "comparisons": [{"label": f"w = 0 {NASTY}", "energy": float(power.sum() * 1.3),
-                         "robustness_exact": 0.07, "peak_speed": 2.4,
-                         "peak_rotor_speed": 79.0, "energy_profile": (power * 1.3).tolist()}],
+        "windows": [Window("safe", 0.0, 2.0), Window("reach", 1.0, 2.0)],
+        "energy_profile": power,
+        "comparisons": [Comparison(f"w = 0 {NASTY}", {}, float(power.sum() * 1.3),
+                                   power * 1.3, robustness_exact=0.07, peak_speed=2.4,
+                                   peak_rotor_speed=79.0)],
+        "risk": risk_json() if risk else None,
     }
-    if risk:
-        extra["risk"] = risk_json()
     sol = Solution(
         mission="demo", status=status, robustness_exact=min(0.25, reach_rho),
         robustness_smooth=min(0.21, reach_rho - 0.04), specs=specs, energy=float(power.sum()),
@@ -199,7 +197,7 @@ def synthetic_case(status: str = "satisfied", risk: bool = True
                    "schedule": [10.0, 20.0, 50.0]},
         problem_size={"variables": 4321, "constraints": 3876, "samples": 21},
         notes=["λ raised from 10 to 50 (schedule)"],
-        extra=extra,
+        **typed,
     )
     return program, mission, sol
 
@@ -396,7 +394,7 @@ def test_bounds_span_the_window_of_the_spec_that_states_them():
     specs = {**mission.specs, "comfort": comfort}
     mission = replace(mission, specs=specs)
     sol.specs["comfort"] = SpecResult(0.3, 0.2, True, 1.5, "uav1.speed <= 2 m/s", 14)
-    sol.extra["windows"] = [*sol.extra["windows"], {"spec": "comfort", "start": 1.0, "end": 2.0}]
+    sol.windows = [*sol.windows, Window("comfort", 1.0, 2.0)]
     plots = {p["id"]: p for p in build_view(program, mission, sol)["signals"]["plots"]}
     (speed,) = plots["sig-speed"]["bounds"]
     assert (speed["x0"], speed["x1"]) == (1.0, 2.0)
@@ -432,7 +430,7 @@ def test_team_signals_distance_and_payload():
     for a, off in zip("xyz", (0.0, 4.0, 0.0), strict=True):
         ch[f"uav2.pos.{a}"] = ch[f"uav1.pos.{a}"] + off
     ch["uav1.payload"] = np.where(sol.times < 1.0, 2.0, 1.0)
-    sol = replace(sol, channels=ch, extra={**sol.extra, "bounds": {"distance_min": 3.0}})
+    sol = replace(sol, channels=ch, bounds={"distance_min": 3.0})
     view = build_view(program, replace(mission, vehicles=("uav1", "uav2")), sol)
     plots = {p["id"]: p for p in view["signals"]["plots"]}
     dist = plots["sig-distance"]
@@ -471,9 +469,9 @@ def point_mass_team(n: int = 3) -> tuple[Program, Mission, Solution]:
                                              "dist(d.pos, e.pos) >= Gamma_dis", 13)},
                    0.0, t, ch, solver={"name": "ipopt", "iterations": 12,
                                        "return_status": "Solve_Succeeded"},
-                   extra={"energy_profile": [0.0] * 21,
-                          "bounds": {"speed_axis": [3.1, 3.1, 3.1], "distance_min": 3.0},
-                          "windows": [{"spec": "separation", "start": 0.0, "end": 2.0}]})
+                   energy_profile=np.zeros(21),
+                   bounds={"speed_axis": [3.1, 3.1, 3.1], "distance_min": 3.0},
+                   windows=[Window("separation", 0.0, 2.0)])
     return program, mission, sol
 
 
@@ -501,7 +499,9 @@ def test_signals_derived_when_channels_missing():
     program, mission, sol = synthetic_case()
     ch = {k: v for k, v in sol.channels.items()
           if k.split(".")[1] in ("pos", "vel", "att")}
-    view = build_view(program, mission, replace(sol, channels=ch, extra={}))
+    view = build_view(program, mission, replace(sol, channels=ch, energy_profile=None,
+                                                comparisons=[], bounds={}, windows=[],
+                                                risk=None))
     plots = {p["id"]: p for p in view["signals"]["plots"]}
     assert "sig-speed" in plots and "sig-heading-1" in plots  # from vel and att.z
     assert "sig-rotor" not in plots and "sig-force" not in plots
@@ -529,8 +529,8 @@ def test_comparison_labelled_with_its_objective():
     program, mission, sol = synthetic_case()
     mission = replace(mission, objective=Objective(energy_weight=0.5),
                       options={"compare": [("no_energy", Objective())]})
-    sol.extra["comparisons"] = [{**sol.extra["comparisons"][0], "label": "no_energy",
-                                 "peak_rotor_speed": math.nan}]
+    sol.comparisons = [replace(sol.comparisons[0], label="no_energy",
+                               peak_rotor_speed=math.nan)]
     e = build_view(program, mission, sol)["energy"]
     assert [c["label"] for c in e["columns"]] == ["this plan (w = 0.5)", "no_energy (w = 0)"]
     assert e["columns"][1]["peak_rotor_speed_text"] == "—"  # NaN: not recorded

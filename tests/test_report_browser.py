@@ -224,9 +224,8 @@ def test_report_without_a_plan_renders_in_chromium(browser, tmp_path):
 def compiled(tmp_path_factory):
     """The two missions of ``TEAM_STL`` planned, risk-assessed and written as ``compile``
     does; returns {mission: output directory}."""
-    from stlc.assess import run_risk
-    from stlc.compile import plan, write_outputs
-    from stlc.pipeline import load
+    from stlc.compile import write_outputs
+    from stlc.pipeline import assess_risk, load, plan
 
     root = tmp_path_factory.mktemp("real")
     src = root / "team.stl"
@@ -234,10 +233,10 @@ def compiled(tmp_path_factory):
     loaded = load(str(src))
     out = {}
     for name, mission in loaded.program.missions.items():
-        sol, *_ = plan(loaded.program, mission, quiet=True)
+        _, sol = plan(loaded.program, mission, quiet=True)
         sol.timing.update(loaded.timing)
-        risk, results = run_risk(loaded.program, mission, sol)
-        write_outputs(str(root / name), loaded.program, mission, sol, risk, results)
+        assess_risk(loaded.program, mission, sol)
+        write_outputs(str(root / name), loaded.program, mission, sol)
         out[name] = root / name
     return out
 

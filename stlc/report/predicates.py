@@ -115,7 +115,7 @@ def const_side(e: ir.Expr) -> float | None:
     return None
 
 
-#: bound kinds of ``Solution.extra["bounds"]`` → how their predicates are labelled
+#: bound kinds of ``Solution.bounds`` → how their predicates are labelled
 BOUND_PATTERNS = {
     "speed": re.compile(r"\.speed <="),
     "rotor_speed": re.compile(r"\.rotor_speed (not )?in"),
@@ -125,9 +125,9 @@ BOUND_PATTERNS = {
 
 
 def stated_bounds(formula: ir.Formula) -> dict:
-    """The bounds a requirement states, in the form of ``Solution.extra["bounds"]``: ``speed``
+    """The bounds a requirement states, in the form of ``Solution.bounds``: ``speed``
     and ``rotor_speed`` as [lo, hi], ``heading_margin_deg``, ``distance_min`` (for plans
-    whose ``extra`` lacks some of them)."""
+    whose ``bounds`` lack some of them)."""
     out: dict = {}
     for p in ir.predicates(ir.normalize(formula)):
         lab, c = _strip_not(p.label)[0], const_side(p.expr)

@@ -7,7 +7,7 @@ close the script element); plotly's bundled ``plotly.min.js``, the stylesheet an
 script that builds the figures are inlined, so the file opens offline.
 
 ``write_report`` also reads the risk pass's per-realisation samples when they lie next to
-the report (``risk_samples.npz``, written first by ``stlc.compile.write_outputs``), for the
+the report (``risk_samples.npz``, or the Solution's in-memory samples), for the
 risk histograms; ``risk.json`` alone holds only their summary.
 """
 
@@ -108,10 +108,16 @@ def write_report(path: str | os.PathLike[str], program: Program, mission: Missio
                  ) -> int:
     """Build, render and write the report atomically; returns the number of bytes written.
 
-    ``risk_samples`` defaults to the ``risk_samples.npz`` next to ``path``, if any.
+    ``risk_samples`` defaults to the samples the risk pass left on the Solution (in
+    memory), else to the ``risk_samples.npz`` next to ``path``, if any.
     """
     target = Path(path)
-    if risk_samples is None and solution.extra.get("risk"):
+    if risk_samples is None and solution.risk_results:
+        from stlc.risk import sample_arrays
+
+        risk_samples = {k: v for k, v in sample_arrays(solution.risk_results).items()
+                        if "/exact/" in k}
+    if risk_samples is None and solution.risk:
         risk_samples = load_samples(target.parent / SAMPLES_FILE)
     data = render_report(build_view(program, mission, solution, risk_samples)).encode("utf-8")
     target.parent.mkdir(parents=True, exist_ok=True)

@@ -1,7 +1,7 @@
 """The risk section: per case, the distribution of the plan's exact robustness under the
 uncertain human pose, VaR/CVaR with their DKW bounds, P(violation) and the driving spec.
 
-The summary numbers come from ``risk.json`` (``Solution.extra["risk"]``).  The histograms
+The summary numbers come from ``risk.json`` (``Solution.risk``).  The histograms
 need the per-realisation robustness, which ``risk.json`` does not hold: they are computed
 from the ``risk_samples.npz`` arrays (``<case>/exact/requirement``) when the report is given
 them, else from a ``histogram`` entry of the case; without either the table stands alone.

@@ -36,13 +36,11 @@ def spec_formulas(program: Program, mission: Mission, sol: Solution) -> dict[str
 
 
 def windows(mission: Mission, sol: Solution, formulas: dict[str, ir.Formula]) -> list[dict]:
-    """Outermost window of each named spec (from ``extra["windows"]`` or the formulas)."""
+    """Outermost window of each named spec (from ``Solution.windows`` or the formulas)."""
     out = []
-    given = sol.extra.get("windows") or []
-    if given:
-        for w in given:  # type: ignore[union-attr]
-            out.append({"spec": str(w.get("spec", "")), "start": num(w.get("start")),
-                        "end": num(w.get("end"))})
+    if sol.windows:
+        for w in sol.windows:
+            out.append({"spec": w.spec, "start": num(w.start), "end": num(w.end)})
     else:
         for name, f in formulas.items():
             while isinstance(f, ir.And) and len(f.args) == 1:
@@ -99,7 +97,7 @@ class _Builder:
         self.multi = len(self.vehicles) > 1
         # the plan's bounds, completed by those the requirement states
         self.bounds = {**stated_bounds(mission.requirement),
-                       **(sol.extra.get("bounds") or {})}  # type: ignore[dict-item]
+                       **sol.bounds}
         self.stated = bound_specs(formulas)
         self.signals = {k: ir.signals(f) for k, f in formulas.items()}
         horizon = float(self.t[-1]) if self.t.size else mission.horizon

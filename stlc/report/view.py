@@ -11,8 +11,8 @@ requirements table), ``scene`` (``scene.py``), ``signals`` (``signals.py``), ``e
 ``risk`` (``risk_view.py``; ``None`` without a risk analysis) and ``source`` (numbered
 lines, diagnostics).
 
-``energy``: ``Solution.extra["energy_profile"]`` is the energy of each sample (J, summing to
-``Solution.energy``); each entry of ``extra["comparisons"]`` (from ``compare NAME { … }``)
+``energy``: ``Solution.energy_profile`` is the energy of each sample (J, summing to
+``Solution.energy``); each of ``Solution.comparisons`` (from ``compare NAME { … }``)
 carries its own energy, exact robustness, peaks and profile.  Energy is the rotor power of
 multirotors; a mission of point masses has none, and the section says so.
 """
@@ -79,9 +79,11 @@ def energy(program: Program, mission: Mission, sol: Solution) -> dict:
     plans = [{"label": f"this plan ({objective_text(mission.objective)})",
               "energy": sol.energy, "robustness_exact": sol.robustness_exact,
               "peak_speed": _peak(speeds), "peak_rotor_speed": _peak(rotor),
-              "energy_profile": sol.extra.get("energy_profile")}]
-    for c in sol.extra.get("comparisons") or []:  # type: ignore[union-attr]
-        c = dict(c)
+              "energy_profile": sol.energy_profile}]
+    for comp in sol.comparisons:
+        c = {"label": comp.label, "energy": comp.energy,
+             "robustness_exact": comp.robustness_exact, "peak_speed": comp.peak_speed,
+             "peak_rotor_speed": comp.peak_rotor_speed, "energy_profile": comp.energy_profile}
         label = str(c.get("label", ""))
         obj = variants.get(label)
         if isinstance(obj, Objective):
@@ -282,16 +284,10 @@ def _source(program: Program, mission: Mission, sol: Solution, rows: list[dict])
         {r["predicate_line"] for r in rows if not r["satisfied"]}
     binding = {r["predicate_line"] for r in rows if r["predicate_line"]}
     diags = []
-    for d in sol.extra.get("diagnostics") or []:  # type: ignore[union-attr]
-        if isinstance(d, dict):
-            line = int(d.get("line") or 0)
-            diags.append({"code": str(d.get("code", "")),
-                          "severity": str(d.get("severity", "error")),
-                          "message": str(d.get("message", "")), "line": line,
-                          "anchor": anchor(line, len(text)), "help": str(d.get("help") or "")})
-        else:
-            diags.append({"code": "", "severity": "note", "message": str(d), "line": 0,
-                          "anchor": "", "help": ""})
+    for d in sol.diagnostics:
+        line = d.span.line if d.span.known else 0
+        diags.append({"code": d.code, "severity": d.severity, "message": d.message,
+                      "line": line, "anchor": anchor(line, len(text)), "help": d.help or ""})
     diag_lines = {d["line"] for d in diags}
     m_lo, m_hi = (mission.span.line, mission.span.end_line) if mission.span.known else (0, -1)
     lines = []
@@ -329,7 +325,7 @@ def build_view(program: Program, mission: Mission, solution: Solution,
         "scene": scene(program, mission, solution),
         "signals": signals(program, mission, solution, wins, rows, markers),
         "energy": en,
-        "risk": risk(solution.extra.get("risk"), mission, len(program.source.splitlines()),
+        "risk": risk(solution.risk, mission, len(program.source.splitlines()),
                      risk_samples),
         "source": _source(program, mission, solution, rows),
     }

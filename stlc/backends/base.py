@@ -1,0 +1,175 @@
+"""The backend interface and the backend chain (modelled on cvxpy's ``Solver``/``Reduction``).
+
+A backend turns a ``PlanningProblem`` into a ``Solution`` in four steps:
+
+* ``accepts(problem)`` — capability check *before any work*: a list of STL401 diagnostics,
+  each at the span of the construct the backend cannot handle (empty = accepted);
+* ``lower(problem) -> (lowered, inverse)`` — build the solver's problem and keep what is
+  needed to map results back;
+* ``solve(lowered, problem) -> raw`` — run the solver;
+* ``invert(raw, inverse, problem) -> Solution`` — mission-level channel names only.
+
+Solver objects never leave a backend: a chain ``[seed, refine]`` hands each backend's
+``Solution`` to the next one as ``problem.seed`` (by channel name).  Every backend maps its
+solver's own return codes to the shared ``SolverStatus`` through its ``STATUS_MAP``.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from stlc import ir
+from stlc.diagnostics import Diagnostic, StlcError
+
+if TYPE_CHECKING:
+    from stlc.planning.problem import PlanningProblem
+    from stlc.solution import Solution
+
+
+class SolverStatus(enum.StrEnum):
+    """How a solver run ended (shared by every backend)."""
+
+    OPTIMAL = "optimal"  # the solver's own convergence test
+    ACCEPTABLE = "acceptable"  # the solver's relaxed convergence test
+    STOPPED = "stopped"  # our stagnation rule stopped it (not converged)
+    MAX_ITER = "max_iter"  # iteration limit (not converged)
+    MAX_TIME = "max_time"  # time limit (not converged)
+    INFEASIBLE = "infeasible"
+    FAILED = "failed"
+    INTERRUPTED = "interrupted"
+    NOT_RUN = "not_run"
+
+    @property
+    def converged(self) -> bool:
+        return self in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE)
+
+
+@dataclass(frozen=True, slots=True)
+class Capabilities:
+    """What a backend can plan: vehicle model kinds, IR node types, expression functions,
+    and whether it handles several vehicles, payload signals and human parameters."""
+
+    vehicle_models: frozenset[str]
+    nodes: frozenset[type]
+    functions: frozenset[str]
+    team: bool = True
+    derived_signals: frozenset[str] = frozenset()  # e.g. {"payload"}: channels not planned
+
+    def describe(self) -> str:
+        return (f"vehicles {sorted(self.vehicle_models)}, "
+                f"{len(self.nodes)} formula nodes, functions {sorted(self.functions)}")
+
+
+class Backend:
+    """Base class: subclasses set ``name``, ``capabilities``, ``STATUS_MAP`` and implement
+    ``lower``/``solve``/``invert``; ``accepts`` checks the capabilities."""
+
+    name: ClassVar[str] = "backend"
+    capabilities: ClassVar[Capabilities]
+    STATUS_MAP: ClassVar[dict[str, SolverStatus]] = {}
+
+    def status(self, code: str) -> SolverStatus:
+        return self.STATUS_MAP.get(code, SolverStatus.FAILED)
+
+    def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
+        return unsupported(self, problem)
+
+    def lower(self, problem: PlanningProblem) -> tuple[Any, Any]:
+        raise NotImplementedError
+
+    def solve(self, lowered: Any, problem: PlanningProblem) -> Any:
+        raise NotImplementedError
+
+    def invert(self, raw: Any, inverse: Any, problem: PlanningProblem) -> Solution:
+        raise NotImplementedError
+
+
+def _walk_formula(f: ir.Formula) -> Iterable[ir.Formula]:
+    stack = [f]
+    while stack:
+        g = stack.pop()
+        yield g
+        stack.extend(ir.children(g))
+
+
+def _walk_expr(e: ir.Expr) -> Iterable[ir.Expr]:
+    stack = [e]
+    while stack:
+        x = stack.pop()
+        yield x
+        match x:
+            case ir.Bin(_, a, b):
+                stack += [a, b]
+            case ir.Neg(a):
+                stack.append(a)
+            case ir.Call(_, args):
+                stack.extend(args)
+
+
+def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
+    """STL401 for every construct of the problem outside ``backend.capabilities``, at the
+    construct's own span (the vehicle declaration, the formula node or the predicate)."""
+    from stlc import vehicles
+
+    cap = backend.capabilities
+    out: list[Diagnostic] = []
+    who = f"the {backend.name} backend"
+    for v in problem.vehicles():
+        kind = vehicles.model_of(v).kind
+        if kind not in cap.vehicle_models:
+            out.append(Diagnostic("STL401", f"{who} cannot plan a `{kind}` vehicle "
+                                  f"(`{v.name}`)", v.span,
+                                  "supported models: " + ", ".join(sorted(cap.vehicle_models))))
+    if not cap.team and len(problem.team) > 1:
+        out.append(Diagnostic("STL401", f"{who} plans one vehicle, the mission has "
+                              f"{len(problem.team)}", problem.mission.span))
+    planned = {c for v in problem.vehicles() for c in vehicles.model_of(v).all_channels(v)}
+    seen: set[tuple[str, int, int]] = set()
+    for g in _walk_formula(problem.requirement):
+        if type(g) not in cap.nodes:
+            out.append(Diagnostic("STL401", f"{who} does not support "
+                                  f"`{type(g).__name__.lower()}`", g.span))
+            continue
+        if not isinstance(g, ir.Pred):
+            continue
+        for e in _walk_expr(g.expr):
+            msg = None
+            if isinstance(e, ir.Call) and e.fn not in cap.functions:
+                msg = f"{who} does not support the function `{e.fn}`"
+            elif isinstance(e, ir.Sig) and e.name not in planned \
+                    and e.name not in problem.fixed_channels:
+                field = e.name.split(".")[1] if "." in e.name else e.name
+                if field in cap.derived_signals:
+                    continue
+                msg = f"{who} has no channel for signal `{e.name}`"
+            if msg is not None:
+                key = (msg, g.span.line, g.span.col)
+                if key not in seen:
+                    seen.add(key)
+                    out.append(Diagnostic("STL401", msg, g.span,
+                                          "plan this mission with a backend that supports it, "
+                                          "or rewrite the predicate"))
+    return out
+
+
+Progress = Callable[[str], None]
+
+
+def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solution, list]:
+    """Run ``chain`` in order, each backend seeded with the previous ``Solution``.  Every
+    backend's ``accepts`` runs before any work; returns the last Solution and all of them."""
+    diags = [d for b in chain for d in b.accepts(problem)]
+    if diags:
+        raise StlcError(diags)
+    sols: list[Solution] = []
+    p = problem
+    for b in chain:
+        lowered, inverse = b.lower(p)
+        raw = b.solve(lowered, p)
+        sol = b.invert(raw, inverse, p)
+        sols.append(sol)
+        p = p.with_seed(sol)
+    return sols[-1], sols

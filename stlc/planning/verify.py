@@ -1,0 +1,70 @@
+"""Verification pass: the exact monitor judges every plan (``Solution``) of a problem.
+
+Derived signals are recomputed from the plan's states by the vehicle models (and the
+payload from positions, for team missions), never taken from the planner; then the exact
+robustness of the requirement, of every named spec (with its tightest time and binding
+predicate) and of every comparison plan is computed on the dense trajectory at the
+mission's step, and the verdict is set: ``satisfied`` when the exact robustness is positive
+and the plan obeys the dynamics.
+"""
+
+from __future__ import annotations
+
+from stlc import monitor, smooth, vehicles
+from stlc.planning.bounds import plot_bounds, spec_windows
+from stlc.planning.problem import PlanningProblem
+from stlc.solution import Solution, SpecResult, Verdict
+
+KAPPA_TOL = 1e-5  # IPOPT meets ρ̃ ≥ κ to its constraint tolerance
+
+
+def recompute_derived(problem: PlanningProblem, channels: dict) -> dict:
+    """The plan's channels with every derived signal recomputed from its states."""
+    ch = dict(channels)
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        if all(c in ch for c in vm.state_channels(v)):
+            ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
+    return ch
+
+
+def verify(problem: PlanningProblem, sol: Solution) -> Solution:
+    """Set the exact robustness, per-spec results, verdict and report data of ``sol``."""
+    dt = problem.grid.dt
+    params = problem.params
+    lam = float(sol.smoothing.get("lambda_final", problem.smoothing.lam))
+    method = problem.smoothing.method
+    ch = recompute_derived(problem, sol.channels)
+    sol.channels = ch
+    exact = float(monitor.robustness(problem.requirement, dt, ch, params))
+    sol.robustness_exact = exact
+    for name, spec in problem.specs.items():
+        r, k, pred = monitor.binding(spec.normal, dt, ch, params)
+        sol.specs[name] = SpecResult(
+            robustness=float(r),
+            smooth=float(smooth.smooth_robustness(spec.normal, dt, ch, params, lam, method)),
+            satisfied=bool(r > 0),
+            tightest_time=None if k is None else float(k * dt),
+            binding_predicate=pred.label if pred is not None else "",
+            line=spec.span.line)
+    if sol.status != Verdict.SOLVER_FAILED:
+        sol.status = Verdict.SATISFIED if exact > 0 and sol.feasible else Verdict.VIOLATED
+    if sol.robustness_smooth < problem.threshold - KAPPA_TOL:
+        sol.notes.append(f"smooth robustness {sol.robustness_smooth:.6f} is below the "
+                         f"threshold κ = {problem.threshold:g}")
+    for c in sol.comparisons:
+        c.channels = recompute_derived(problem, c.channels)
+        c.robustness_exact = float(monitor.robustness(problem.requirement, dt, c.channels,
+                                                      params))
+        c.specs = {name: float(monitor.robustness(s.normal, dt, c.channels, params))
+                   for name, s in problem.specs.items()}
+        c.peak_speed = _peak(c.channels, ".speed")
+        c.peak_rotor_speed = _peak(c.channels, ".rotor_speed.")
+    sol.bounds = plot_bounds(problem)
+    sol.windows = spec_windows(problem)
+    return sol
+
+
+def _peak(ch: dict, key: str) -> float:
+    vals = [float(max(v)) for k, v in ch.items() if key in k]
+    return max(vals) if vals else float("nan")

@@ -1,0 +1,80 @@
+"""Vehicle models behind one protocol, registered once.
+
+Every pass that needs to know what a vehicle *is* — its state layout, dynamics, bounds,
+start state, derived signals, energy, the fields a formula may read, the kinematic limits
+of an initial guess — asks the registry: ``model_of(vehicle)`` returns the ``VehicleModel``
+registered for the vehicle's class.  Adding a vehicle model is one module here plus one
+``register`` call (see the README, "Adding a vehicle model"); no other module tests the
+class of a vehicle.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import casadi as ca
+import numpy as np
+
+from stlc import model
+
+
+class VehicleModel(Protocol):
+    kind: str  # the name written after `vehicle NAME :` in a file
+
+    def state_size(self, v) -> tuple[int, int]: ...
+    def state_channels(self, v) -> list[str]: ...
+    def input_channels(self, v) -> list[str]: ...
+    def derived_names(self, v) -> list[str]: ...
+    def all_channels(self, v) -> list[str]: ...
+    def pos_index(self) -> slice: ...
+    def vel_index(self) -> slice: ...
+    def ode(self, v) -> ca.Function: ...
+    def bounds(self, v): ...
+    def initial_state(self, v) -> np.ndarray: ...
+    def derived_channels(self, v, X: np.ndarray) -> dict[str, np.ndarray]: ...
+    def derived_channels_sx(self, v, x: ca.SX, eps: float = 0.0) -> dict[str, ca.SX]: ...
+    def energy_terms(self, v, x: ca.SX, dt: float) -> ca.SX | None: ...
+    def energy_profile(self, v, X: np.ndarray, dt: float) -> np.ndarray: ...
+    def kinematic_limits(self, v) -> tuple[np.ndarray, np.ndarray]: ...
+    def guess(self, v, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
+              ) -> tuple[np.ndarray, np.ndarray]: ...
+    def plot_bounds(self, v) -> dict[str, list[float]]: ...
+
+
+_REGISTRY: dict[type, VehicleModel] = {}
+
+
+def register(cls: type, vm: VehicleModel) -> None:
+    _REGISTRY[cls] = vm
+
+
+def model_of(v: model.Vehicle) -> VehicleModel:
+    try:
+        return _REGISTRY[type(v)]
+    except KeyError:
+        raise TypeError(f"no vehicle model registered for {type(v).__name__}") from None
+
+
+def kinds() -> list[str]:
+    return sorted(vm.kind for vm in _REGISTRY.values())
+
+
+def state_matrix(v: model.Vehicle, channels: dict[str, np.ndarray]) -> np.ndarray:
+    """States of ``v`` as an (n, nx) matrix from its named channels."""
+    return np.stack([np.asarray(channels[c], dtype=float)
+                     for c in model_of(v).state_channels(v)], axis=1)
+
+
+def is_multirotor(v: model.Vehicle) -> bool:
+    return isinstance(v, model.Multirotor)
+
+
+def is_point_mass(v: model.Vehicle) -> bool:
+    return isinstance(v, model.PointMass)
+
+
+from stlc.vehicles import multirotor as _mr  # noqa: E402
+from stlc.vehicles import point_mass as _pm  # noqa: E402
+
+register(model.Multirotor, _mr.MultirotorModel())
+register(model.PointMass, _pm.PointMassModel())

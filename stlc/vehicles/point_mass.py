@@ -1,0 +1,79 @@
+"""The point-mass model (paper B): state (p, v), input a, per-axis velocity and
+acceleration bounds; a team drone may carry a payload (a derived signal, see
+``stlc.team.payload``)."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from stlc import dynamics
+from stlc.model import PointMass
+
+POS, VEL = slice(0, 3), slice(3, 6)
+
+
+class PointMassModel:
+    kind = "point_mass"
+
+    def state_size(self, v: PointMass) -> tuple[int, int]:
+        return 6, 3
+
+    def state_channels(self, v: PointMass) -> list[str]:
+        return v.channels()
+
+    def input_channels(self, v: PointMass) -> list[str]:
+        return v.input_channels()
+
+    def derived_names(self, v: PointMass) -> list[str]:
+        return [f"{v.name}.speed", f"{v.name}.course"]
+
+    def all_channels(self, v: PointMass) -> list[str]:
+        return self.state_channels(v) + self.input_channels(v) + self.derived_names(v)
+
+    def pos_index(self) -> slice:
+        return POS
+
+    def vel_index(self) -> slice:
+        return VEL
+
+    def ode(self, v: PointMass) -> ca.Function:
+        return dynamics.point_mass_ode(v)
+
+    def bounds(self, v: PointMass) -> dynamics.Bounds:
+        vmax = np.asarray(v.vel_max, dtype=float)
+        amax = np.asarray(v.acc_max, dtype=float)
+        x_lo, x_hi = np.full(6, -np.inf), np.full(6, np.inf)
+        x_lo[3:6], x_hi[3:6] = -vmax, vmax
+        return dynamics.Bounds(x_lo, x_hi, -amax, amax.copy())
+
+    def initial_state(self, v: PointMass) -> np.ndarray:
+        return np.concatenate([v.start_pos, v.start_vel]).astype(float)
+
+    def derived_channels(self, v: PointMass, X: np.ndarray) -> dict[str, np.ndarray]:
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        vel = X[:, VEL]
+        return {f"{v.name}.speed": np.linalg.norm(vel, axis=1),
+                f"{v.name}.course": np.arctan2(vel[:, 1], vel[:, 0])}
+
+    def derived_channels_sx(self, v: PointMass, x: ca.SX, eps: float = 0.0
+                            ) -> dict[str, ca.SX]:
+        vel = x[VEL]
+        return {f"{v.name}.speed": ca.sqrt(ca.dot(vel, vel) + eps**2),
+                f"{v.name}.course": ca.atan2(vel[1], vel[0])}
+
+    def energy_terms(self, v: PointMass, x: ca.SX, dt: float) -> None:
+        return None  # no energy model: paper B's planner uses the forward-speed term
+
+    def energy_profile(self, v: PointMass, X: np.ndarray, dt: float) -> np.ndarray:
+        return np.zeros(np.atleast_2d(X).shape[0])
+
+    def kinematic_limits(self, v: PointMass) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(v.vel_max, dtype=float), np.array(v.acc_max, dtype=float)
+
+    def guess(self, v: PointMass, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
+              ) -> tuple[np.ndarray, np.ndarray]:
+        return np.vstack([P, V]), A
+
+    def plot_bounds(self, v: PointMass) -> dict[str, list[float]]:
+        return {"speed_axis": list(v.vel_max)}
