@@ -18,8 +18,8 @@ import os
 import sys
 
 from stlc import ir, model
-from stlc.planning.problem import mission_specs
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.planning.problem import mission_specs
 from stlc.solution import Solution
 
 EXIT_OK = 0

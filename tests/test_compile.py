@@ -18,9 +18,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from stlc import dynamics, ir, model, monitor
-from stlc.pipeline import compile_file, plan
 from stlc.diagnostics import StlcError
-from stlc.pipeline import load
+from stlc.pipeline import compile_file, load, plan
 from stlc.trace import read_trace
 
 ROOT = Path(__file__).resolve().parent.parent

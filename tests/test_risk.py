@@ -15,17 +15,14 @@ from scipy import stats
 
 from stlc.ir import Always, And, Bin, Const, Eventually, Or, Param, Pred, Sig
 from stlc.model import Normal, RiskCase, RiskConfig
-from stlc.risk import (
+from stlc.risk import evaluate_case, evaluate_risk, run_cases, save_samples
+from stlc.risk_measures import (
     RiskError,
     betainc,
     clopper_pearson_upper,
     cvar_bounds,
     dkw_margin,
-    evaluate_case,
-    evaluate_risk,
     p_violation,
-    run_cases,
-    save_samples,
     var_bounds,
 )
 from stlc.sampling import (

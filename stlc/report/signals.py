@@ -13,8 +13,9 @@ import math
 import numpy as np
 
 from stlc import ir
-from stlc.model import Mission, Multirotor, PointMass, Program
+from stlc.model import Mission, Program
 from stlc.solution import Solution
+from stlc.vehicles import model_of
 
 from .common import channel, fmt, indexed, num, nums, pair, speed, vehicles
 from .predicates import bound_specs, hover_speed, stated_bounds
@@ -178,7 +179,7 @@ class _Builder:
             traces, bnds = [], []
             for v in self.vehicles:
                 veh = self.program.vehicles.get(v)
-                if not isinstance(veh, PointMass):
+                if veh is None or model_of(veh).kind != "point_mass":
                     continue
                 for a in "xyz":
                     c = channel(self.sol, f"{v}.{field}.{a}")
@@ -203,7 +204,7 @@ class _Builder:
                 traces.append({"name": self.tag(v, "rotor " + name.rsplit(".", 1)[1]),
                                "y": nums(c)})
             veh = self.program.vehicles.get(v)
-            if isinstance(veh, Multirotor) and veh.c_f > 0 and rs:
+            if veh is not None and model_of(veh).kind == "multirotor" and veh.c_f > 0 and rs:
                 lo_f = veh.force_min if f_lo is None else f_lo
                 hi_f = veh.force_max if f_hi is None else f_hi
                 if lo_f is not None and lo_f > 0:
@@ -222,7 +223,7 @@ class _Builder:
             for name, c in indexed(self.sol, f"{v}.force"):
                 traces.append({"name": self.tag(v, "ξ" + name.rsplit(".", 1)[1]), "y": nums(c)})
             veh = self.program.vehicles.get(v)
-            if f_lo is None and isinstance(veh, Multirotor):
+            if f_lo is None and veh is not None and model_of(veh).kind == "multirotor":
                 f_lo, f_hi = veh.force_min, veh.force_max
         self.add("sig-force", "Rotor forces", "N", traces,
                  self.line(f_lo, "ξ min", unit="N") + self.line(f_hi, "ξ max", unit="N"),

@@ -24,8 +24,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from stlc.model import Mission, Multirotor, Objective, Program
+from stlc.model import Mission, Objective, Program
 from stlc.solution import Solution
+from stlc.vehicles import model_of
 
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
 from .predicates import predicate_line, readable
@@ -68,7 +69,8 @@ def energy(program: Program, mission: Mission, sol: Solution) -> dict:
     """The ``energy`` section of the view model."""
     t = np.asarray(sol.times, float)
     names = vehicles(mission, sol)
-    modelled = any(isinstance(program.vehicles.get(v), Multirotor) for v in names)
+    modelled = any(model_of(program.vehicles[v]).kind == "multirotor"
+                   for v in names if v in program.vehicles)
 
     def axis(n: int) -> list[float | None]:
         return nums(t) if n == t.size else nums(np.arange(n) * mission.step)
