@@ -237,12 +237,14 @@ class Context(ABC):
                              f"add `{name} = ...`")
         return out
 
-    def num(self, f: dict, key: str, dim, default=None, positive=False) -> float | None:
-        """The constant scalar field ``key`` of ``f`` (finite; > 0 if ``positive``)."""
+    def num(self, f: dict, key: str, dim, default=None, positive=False,
+            scope: Scope | None = None) -> float | None:
+        """The constant scalar field ``key`` of ``f`` (finite; > 0 if ``positive``),
+        evaluated in ``scope`` (the global scope by default)."""
         m = f.get(key)
         if m is None:
             return default
-        x = self.number(m.value, self.globals, dim, f"`{key}`")
+        x = self.number(m.value, scope or self.globals, dim, f"`{key}`")
         if x is not None and not math.isfinite(x):
             self.d.error("STL207", f"`{key}` must be a finite number, found {x:g}", m.value.span)
             return None

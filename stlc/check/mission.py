@@ -15,7 +15,7 @@ from stlc.timegrid import is_aligned
 MISSION_FIELDS = {
     "vehicles": False, "team": False, "vehicle": False, "horizon": True, "step": True,
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
-    "integrator": False, "max_iter": False,
+    "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare")
 MAX_SAMPLES = 20_000
@@ -42,8 +42,8 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
     ck.consts([m for m in b.members if isinstance(m, ast.Named) and m.kind == "const"], scope)
 
     # time grid
-    horizon = ck.num(f, "horizon", units.TIME, positive=True)
-    step = ck.num(f, "step", units.TIME, positive=True)
+    horizon = _grid_time(ck, f, "horizon", scope)
+    step = _grid_time(ck, f, "step", scope)
     if horizon is not None and step is not None:
         if horizon / step > MAX_SAMPLES:  # first: a tiny step overflows the alignment test
             ck.d.error("STL305", f"{horizon / step:.3g} samples is more than the limit "
@@ -90,8 +90,9 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
 
     objective = _objective(ck, b, scope)
     smoothing = _smoothing(ck, f, scope)
-    threshold = ck.num(f, "threshold", None, 0.0)
-    fwd = ck.num(f, "forward_speed", units.SPEED, positive=True)
+    threshold = ck.num(f, "threshold", None, 0.0, scope=scope)
+    fwd = ck.num(f, "forward_speed", units.SPEED, positive=True, scope=scope)
+    dwell = {k: _dwell(ck, f, k, horizon, scope) for k in ("install_time", "refill_time")}
     if objective is not None and fwd is not None:
         objective = model.Objective(objective.robustness_weight, objective.energy_weight,
                                     objective.forward_weight, fwd)
@@ -103,7 +104,7 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
             ck.d.error("STL207", "`integrator` is `rk4` or `euler`", v.span)
         options["integrator"] = txt
     if "max_iter" in f:
-        mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT)
+        mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT, scope)
         if mi is not None:
             options["max_iter"] = mi
     compares = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "compare"]
@@ -113,16 +114,50 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
     replan = _replan(ck, b, all_specs)
     if None in (horizon, step, requirement, objective, smoothing, threshold):
         return None
+    if any(v is False for v in dwell.values()):
+        return None
     return model.Mission(
         name=name, vehicles=tuple(vehicles), horizon=horizon, step=step,  # type: ignore
         specs=specs, requirement=requirement, objective=objective,  # type: ignore
         threshold=threshold, smoothing=smoothing, risk=risk, replan=replan,  # type: ignore
-        options=options, span=b.span, spec_spans=spans)
+        options=options, span=b.span, spec_spans=spans,
+        install_time=dwell["install_time"], refill_time=dwell["refill_time"])  # type: ignore
 
 
-def _whole(ck: Context, node: ast.Node, what: str, lo: int, hi: int) -> int | None:
+def _grid_time(ck: Context, f: dict, key: str, scope) -> float | None:
+    """``horizon`` or ``step``: a positive, finite time (STL305 otherwise)."""
+    m = f.get(key)
+    if m is None:
+        return None
+    x = ck.number(m.value, scope, units.TIME, f"`{key}`")
+    if x is not None and not (math.isfinite(x) and x > 0):
+        ck.d.error("STL305", f"`{key}` must be a positive, finite time, found {x:g} s",
+                   m.value.span, "e.g. `horizon = 20 s` and `step = 0.1 s`")
+        return None
+    return x
+
+
+def _dwell(ck: Context, f: dict, key: str, horizon: float | None, scope
+           ) -> float | None | bool:
+    """``install_time`` / ``refill_time``: None if absent, a time in (0, horizon], or False
+    (reported) if it is wrong."""
+    if key not in f:
+        return None
+    node = f[key].value
+    x = ck.num(f, key, units.TIME, positive=True, scope=scope)
+    if x is None:
+        return False
+    if horizon is not None and x > horizon * (1 + 1e-12):
+        ck.d.error("STL207", f"`{key}` {x:g} s is longer than the mission horizon "
+                   f"{horizon:g} s", node.span, "shorten it or lengthen the horizon")
+        return False
+    return x
+
+
+def _whole(ck: Context, node: ast.Node, what: str, lo: int, hi: int, scope=None
+           ) -> int | None:
     """A whole number in [lo, hi] (finite: ``int()`` of inf or nan would crash)."""
-    x = ck.number(node, ck.globals, units.DIMLESS, f"`{what}`")
+    x = ck.number(node, scope or ck.globals, units.DIMLESS, f"`{what}`")
     if x is None:
         return None
     if not (math.isfinite(x) and x == round(x) and lo <= x <= hi):
@@ -267,7 +302,7 @@ def _smoothing(ck: Context, f: dict, scope) -> model.Smoothing | None:
             method = None
         else:
             method = txt
-    lam = ck.num(f, "lambda", units.DIMLESS, 10.0, positive=True)  # checked either way
+    lam = ck.num(f, "lambda", units.DIMLESS, 10.0, positive=True, scope=scope)  # checked either way
     return None if lam is None or method is None else model.Smoothing(method, lam)
 
 
