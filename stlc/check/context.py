@@ -191,9 +191,11 @@ class Context(ABC):
 
     def finite(self, x: np.ndarray | float, what: str, span: Span) -> bool:
         """STL207 unless every number of ``x`` is finite."""
-        if np.all(np.isfinite(x)):
+        arr = np.asarray(x, dtype=float)
+        if np.all(np.isfinite(arr)):
             return True
-        self.err("STL207", f"{what} must be finite numbers", span,
+        bad = float(arr[~np.isfinite(arr)].flat[0])
+        self.err("STL207", f"{what} must be finite, found {bad:g}", span,
                  "`inf` may only be the upper bound of a time interval")
         return False
 

@@ -266,6 +266,8 @@ def _linear(ck: Context, n: ast.Node, scope) -> dict[str, float] | None:
             for c, t in ((left, right), (right, left)):
                 if not _mentions_term(c):
                     k = ck.number(c, scope, None, "an objective weight")
+                    if k is not None and not ck.finite(k, "an objective weight", c.span):
+                        return None
                     terms = _linear(ck, t, scope)
                     if k is None or terms is None:
                         return None
