@@ -346,11 +346,16 @@ def example(d: units.Dim | None) -> str:
 
 
 def unit_span(node: ast.Node) -> Span:
-    """The span of the unit written after a quantity (the whole node otherwise)."""
-    s = node.span
-    if isinstance(node, ast.Quantity) and s.known and s.end_col > len(node.unit):
-        return Span(s.file, s.end_line, s.end_col - len(node.unit), s.end_line, s.end_col)
-    return s
+    """The span of the first unit written in ``node`` (the whole node if it has none, e.g.
+    when the unit comes from a constant)."""
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        s = n.span
+        if isinstance(n, ast.Quantity) and s.known and s.end_col > len(n.unit):
+            return Span(s.file, s.end_line, s.end_col - len(n.unit), s.end_line, s.end_col)
+        stack.extend(reversed(ast.node_children(n)))
+    return node.span
 
 
 def misaligned(t: float, step: float) -> bool:
