@@ -1,5 +1,9 @@
-"""Checking a ``mission`` block: time grid, team, named specs, requirement, objective,
-smoothing, risk cases and replanning options (part of the checker pass)."""
+"""Checking a ``mission`` block: time grid (STL305 for a bad horizon or step), team, named
+specs, requirement, objective, smoothing, dwell times of paper B's payload rule
+(``install_time``, ``refill_time``), risk cases and replanning options.
+
+Part of the checker (``stlc.check``): ``check_mission`` takes the checker ``Context``;
+mission fields are evaluated in the mission's scope, so they may use its constants."""
 
 from __future__ import annotations
 
@@ -114,14 +118,12 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
     replan = _replan(ck, b, all_specs)
     if None in (horizon, step, requirement, objective, smoothing, threshold):
         return None
-    if any(v is False for v in dwell.values()):
-        return None
     return model.Mission(
         name=name, vehicles=tuple(vehicles), horizon=horizon, step=step,  # type: ignore
         specs=specs, requirement=requirement, objective=objective,  # type: ignore
         threshold=threshold, smoothing=smoothing, risk=risk, replan=replan,  # type: ignore
         options=options, span=b.span, spec_spans=spans,
-        install_time=dwell["install_time"], refill_time=dwell["refill_time"])  # type: ignore
+        install_time=dwell["install_time"], refill_time=dwell["refill_time"])
 
 
 def _grid_time(ck: Context, f: dict, key: str, scope) -> float | None:
@@ -137,20 +139,14 @@ def _grid_time(ck: Context, f: dict, key: str, scope) -> float | None:
     return x
 
 
-def _dwell(ck: Context, f: dict, key: str, horizon: float | None, scope
-           ) -> float | None | bool:
-    """``install_time`` / ``refill_time``: None if absent, a time in (0, horizon], or False
-    (reported) if it is wrong."""
-    if key not in f:
-        return None
-    node = f[key].value
+def _dwell(ck: Context, f: dict, key: str, horizon: float | None, scope) -> float | None:
+    """``install_time`` / ``refill_time`` (paper B's payload rule): a time in (0, horizon],
+    or None if it is absent or wrong (reported; the pass then fails)."""
     x = ck.num(f, key, units.TIME, positive=True, scope=scope)
-    if x is None:
-        return False
-    if horizon is not None and x > horizon * (1 + 1e-12):
+    if x is not None and horizon is not None and x > horizon * (1 + 1e-12):
         ck.d.error("STL207", f"`{key}` {x:g} s is longer than the mission horizon "
-                   f"{horizon:g} s", node.span, "shorten it or lengthen the horizon")
-        return False
+                   f"{horizon:g} s", f[key].value.span, "shorten it or lengthen the horizon")
+        return None
     return x
 
 
