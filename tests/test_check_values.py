@@ -116,6 +116,11 @@ NON_FINITE = [
      "box((0, 0, 0), (1, 1, inf))"),
     (UAV + "scenario { target t = box(center = (0, 0, inf), size = (1, 1, 1)) m }\n",
      "box(center = (0, 0, inf), size = (1, 1, 1))"),
+    (UAV + "scenario { target t = box((0, 0, 0), (1, 1, 1e306)) km }\n",
+     "box((0, 0, 0), (1, 1, 1e306)) km"),
+    (UAV + "scenario {\n  human op { pos = (0, 0, 0) m }\n"
+     "  op.pos ~ normal((0, 0, 1e306), diag(1, 1, 1)) km\n}\n",
+     "normal((0, 0, 1e306), diag(1, 1, 1)) km"),
     (UAV + "const c = 0 * inf\n", "0 * inf"),
     (UAV + "const c = inf / inf\n", "inf / inf"),
     (UAV + "const c = angdiff(inf, 0)\n", "angdiff(inf, 0)"),

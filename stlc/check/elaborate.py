@@ -95,16 +95,22 @@ class ExpressionElaborator(Context):
                 if v.dim is not None and v.dim != units.DIMLESS:
                     return self.err("STL204", f"`{n.unit}` applied to a value that already "
                                     f"has a unit ({units.describe(v.dim)})", n.span)
-                return Num(v.v * scale, dim)
+                with np.errstate(over="ignore"):  # inf is reported where it is used
+                    return Num(v.v * scale, dim)
             case RegionV(name, box):
                 if dim != units.LENGTH:
                     return self.err("STL204", f"unit mismatch: a region is measured in "
                                     f"lengths, found {units.describe(dim)}", n.span,
                                     "write its corners in m, e.g. box(lo, hi) m")
-                return RegionV(name, model.Box(tuple(x * scale for x in box.lo),  # type: ignore
-                                               tuple(x * scale for x in box.hi), box.frame))
+                with np.errstate(over="ignore"):  # an overflow to inf is reported below
+                    lo, hi = np.array(box.lo) * scale, np.array(box.hi) * scale
+                if not self.finite(np.concatenate([lo, hi]), "the corners of a box", n.span):
+                    return ERROR
+                return RegionV(name, model.Box(tuple(map(float, lo)),  # type: ignore[arg-type]
+                                               tuple(map(float, hi)), box.frame))
             case DistV(mean, cov, _):
-                return DistV(mean * scale, cov * scale * scale, dim)
+                with np.errstate(over="ignore"):  # reported by `value` if not finite
+                    return DistV(mean * scale, cov * scale * scale, dim)
             case ErrorV():
                 return v
             case Sym():
