@@ -198,6 +198,9 @@ class Mission:
     options: dict[str, float | str] = field(default_factory=dict)
     span: Span = field(default=NO_SPAN, compare=False)
     spec_spans: dict[str, Span] = field(default_factory=dict, compare=False)
+    #: paper B's payload rule: dwell to install one item / to refill (s), if given
+    install_time: float | None = None
+    refill_time: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stlc import ir, model
-from stlc.units import Dim
+from stlc.check.units import Dim
 
 
 @dataclass(frozen=True)
@@ -173,3 +173,31 @@ def to_sym(v: Num) -> Sym:
     arr = np.atleast_1d(v.v)
     items = tuple(const(x) for x in arr.ravel())
     return Sym(items, v.dim, v.v.ndim > 0, tuple(f"{x:g}" for x in arr.ravel()))
+
+
+def broadcast(a: Sym, b: Sym) -> list[tuple[ir.Expr, ir.Expr]] | None:
+    """Pair the components of two signal values (a scalar pairs with every component)."""
+    if len(a.items) == len(b.items):
+        return list(zip(a.items, b.items))
+    if len(a.items) == 1:
+        return [(a.items[0], y) for y in b.items]
+    if len(b.items) == 1:
+        return [(x, b.items[0]) for x in a.items]
+    return None
+
+
+def finite_expr(e: ir.Expr) -> bool:
+    """Are all constants of the expression ``e`` finite?"""
+    stack = [e]
+    while stack:
+        x = stack.pop()
+        match x:
+            case ir.Const(value) if not np.isfinite(value):
+                return False
+            case ir.Neg(a):
+                stack.append(a)
+            case ir.Bin(_, a, b):
+                stack += [a, b]
+            case ir.Call(_, args):
+                stack.extend(args)
+    return True

@@ -1,6 +1,7 @@
 """Built-in functions of the language: math on signals, constructors for boxes, matrices,
-distributions and rotor geometries.  Each takes the elaborator, the call node and the scope
-and returns a checked value (or reports a diagnostic and returns ``ERROR``)."""
+distributions and rotor geometries.  Each takes the checker context, the call node and the
+scope and returns a checked value (or reports a diagnostic and returns ``ERROR``); ``FUNCS``
+is installed as ``Context.functions`` by ``stlc.check.program``."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ import math
 
 import numpy as np
 
-from stlc import ast, model, units
-from stlc.elaborate import Elaborator, Scope
-from stlc.values import (
+from stlc import ast, ir, model
+from stlc.check import units
+from stlc.check.context import Context, Scope
+from stlc.check.values import (
     ERROR,
     DistV,
     ErrorV,
@@ -27,7 +29,7 @@ from stlc.values import (
 )
 
 
-def _arity(el: Elaborator, n: ast.Call, lo: int, hi: int | None = None) -> bool:
+def _arity(el: Context, n: ast.Call, lo: int, hi: int | None = None) -> bool:
     hi = lo if hi is None else hi
     k = len(n.args)
     if k < lo or (hi >= 0 and k > hi) or n.kwargs and n.fn not in KW_FUNCS:
@@ -38,7 +40,7 @@ def _arity(el: Elaborator, n: ast.Call, lo: int, hi: int | None = None) -> bool:
     return True
 
 
-def _numeric(el: Elaborator, node: ast.Node, scope: Scope) -> Num | Sym | None:
+def _numeric(el: Context, node: ast.Node, scope: Scope) -> Num | Sym | None:
     v = el.value(node, scope)
     if isinstance(v, (Num, Sym)):
         return v
@@ -48,7 +50,7 @@ def _numeric(el: Elaborator, node: ast.Node, scope: Scope) -> Num | Sym | None:
 
 
 def _elementwise(fn: str, out_dim):
-    def f(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+    def f(el: Context, n: ast.Call, scope: Scope) -> Value:
         if not _arity(el, n, 1):
             return ERROR
         v = _numeric(el, n.args[0], scope)
@@ -78,7 +80,7 @@ def _sqrt_dim(d):
         return None
 
 
-def _norm(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+def _norm(el: Context, n: ast.Call, scope: Scope) -> Value:
     if not _arity(el, n, 1):
         return ERROR
     v = _numeric(el, n.args[0], scope)
@@ -93,14 +95,14 @@ def _norm(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
     return Sym((call("sqrt", acc),), v.dim, False, (el.text(n.span),))
 
 
-def _dist(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+def _dist(el: Context, n: ast.Call, scope: Scope) -> Value:
     if not _arity(el, n, 2):
         return ERROR
     sub_node = ast.Call("norm", (ast.Binary("-", n.args[0], n.args[1], n.span),), (), n.span)
     return _norm(el, sub_node, scope)
 
 
-def _dot(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+def _dot(el: Context, n: ast.Call, scope: Scope) -> Value:
     if not _arity(el, n, 2):
         return ERROR
     a, b = _numeric(el, n.args[0], scope), _numeric(el, n.args[1], scope)
@@ -118,7 +120,7 @@ def _dot(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
 
 
 def _minmax(fn: str):
-    def f(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+    def f(el: Context, n: ast.Call, scope: Scope) -> Value:
         if not _arity(el, n, 1, -1):
             return ERROR
         vals = [_numeric(el, a, scope) for a in n.args]
@@ -148,7 +150,7 @@ def _minmax(fn: str):
 
 
 def _binary_angle(fn: str):
-    def f(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+    def f(el: Context, n: ast.Call, scope: Scope) -> Value:
         if not _arity(el, n, 2):
             return ERROR
         a, b = _numeric(el, n.args[0], scope), _numeric(el, n.args[1], scope)
@@ -164,20 +166,23 @@ def _binary_angle(fn: str):
             return el.err("STL205", f"`{fn}` takes scalars", n.span)
         e = call(fn, sa.items[0], sb.items[0])
         if isinstance(a, Num) and isinstance(b, Num):
-            return Num(np.array(e.value), units.ANGLE)  # type: ignore[union-attr]
+            if not isinstance(e, ir.Const):  # not folded: the result is not finite
+                return el.err("STL207", f"`{fn}` of these numbers is not finite", n.span)
+            return Num(np.array(e.value), units.ANGLE)
         return Sym((e,), units.ANGLE, False, (el.text(n.span),))
 
     return f
 
 
-def _box(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+def _box(el: Context, n: ast.Call, scope: Scope) -> Value:
     kw = dict(n.kwargs)
     if set(kw) == {"center", "size"} and not n.args:
         c = el.vector(kw["center"], scope, 3, units.LENGTH, "the box centre")
         s = el.vector(kw["size"], scope, 3, units.LENGTH, "the box size")
         if c is None or s is None:
             return ERROR
-        lo, hi = c - s / 2, c + s / 2
+        with np.errstate(all="ignore"):
+            lo, hi = c - s / 2, c + s / 2
     elif not kw and len(n.args) == 2:
         lo = el.vector(n.args[0], scope, 3, units.LENGTH, "the box corner `lo`")
         hi = el.vector(n.args[1], scope, 3, units.LENGTH, "the box corner `hi`")
@@ -186,13 +191,15 @@ def _box(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
     else:
         return el.err("STL206", "`box` takes two corners `box(lo, hi)` or "
                       "`box(center = ..., size = ...)`", n.span)
+    if not el.finite(np.concatenate([lo, hi]), "the corners of a box", n.span):
+        return ERROR
     if np.any(lo > hi):
         return el.err("STL211", "empty box: a `lo` coordinate is above `hi`", n.span,
                       "write the lower corner first: box((xmin, ymin, zmin), (xmax, ymax, zmax))")
     return RegionV("", model.Box(tuple(map(float, lo)), tuple(map(float, hi))))  # type: ignore
 
 
-def _diag(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+def _diag(el: Context, n: ast.Call, scope: Scope) -> Value:
     if not _arity(el, n, 1, -1):
         return ERROR
     vals = []
@@ -214,7 +221,7 @@ def _diag(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
     return Num(np.diag(np.array(vals, dtype=float)), dims.pop() if dims else None)
 
 
-def _normal(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+def _normal(el: Context, n: ast.Call, scope: Scope) -> Value:
     kw = dict(n.kwargs)
     args = list(n.args)
     mean_n = kw.get("mean", args[0] if args else None)
@@ -227,6 +234,9 @@ def _normal(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
         return ERROR
     if not isinstance(mean, Num) or not isinstance(cov, Num):
         return el.err("STL210", "`normal` takes constant numbers", n.span)
+    if not (el.finite(mean.v, "the mean", mean_n.span) and
+            el.finite(cov.v, "the covariance", cov_n.span)):
+        return ERROR
     m = np.atleast_1d(mean.v).astype(float)
     c = np.atleast_2d(cov.v).astype(float)
     if cov.v.ndim == 1:
@@ -248,7 +258,7 @@ def _normal(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
 
 
 def _rotor_geometry(kind: str):
-    def f(el: Elaborator, n: ast.Call, scope: Scope) -> Value:
+    def f(el: Context, n: ast.Call, scope: Scope) -> Value:
         from stlc import geometry
 
         if n.args:

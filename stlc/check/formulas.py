@@ -1,24 +1,22 @@
 """Elaboration of formulas: comparisons, region membership, logic, temporal operators with
 their intervals, and quantifiers over groups of vehicles and regions → typed IR.
 
-``FormulaElaborator`` is a mixin of ``stlc.elaborate.Elaborator`` (which evaluates the
-expressions that formulas compare).  This module also holds the checks of time bounds
-against a mission's step, which the checker reuses on inlined top-level specs, and the
-checking of a sequence of named specs (``named_specs``).
+``FormulaElaborator`` is one half of the checker's elaborator; the other half,
+``stlc.check.elaborate.ExpressionElaborator``, evaluates the expressions that formulas
+compare (both are ``Context`` subclasses, put together by ``stlc.check.program``).  Every
+predicate must compare finite numbers: ``x <= inf`` is STL207 where it is written.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-from stlc import ast, ir, units
-from stlc.diagnostics import Span
-from stlc.timegrid import is_aligned
-from stlc.values import (
+from stlc import ast, ir
+from stlc.check import units
+from stlc.check.context import Context, Scope, misaligned, nearest_hint
+from stlc.check.values import (
     ERROR,
     ErrorV,
     Form,
@@ -30,25 +28,23 @@ from stlc.values import (
     Value,
     VehicleV,
     add,
+    broadcast,
     const,
+    finite_expr,
     kind_name,
     mul,
     neg,
     sub,
     to_sym,
 )
-
-if TYPE_CHECKING:
-    from stlc.check import Checker
-    from stlc.elaborate import Scope
+from stlc.diagnostics import Span
 
 DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
                "`regions` or a list like [uav1, uav2]")
 
 
-class FormulaElaborator:
-    """The formula half of the elaborator (``value``, ``number``, ``err`` and ``text`` come
-    from ``Elaborator``)."""
+class FormulaElaborator(Context):
+    """The formula half of the elaborator (``value`` is ``ExpressionElaborator``'s)."""
 
     def formula(self, node: ast.Node, scope: Scope) -> ir.Formula | None:
         v = self.value(node, scope)
@@ -101,7 +97,7 @@ class FormulaElaborator:
             self.err("STL302", f"interval bounds out of order: [{lo:g}, {hi:g}]", iv.span,
                      f"did you mean [{hi:g}, {lo:g}]?")
             ok = False
-        step = self.time.step
+        step = self.step
         if ok and step:
             for t, node in ((lo, iv.lo), (hi, iv.hi)):
                 if misaligned(t, step):
@@ -159,10 +155,12 @@ class FormulaElaborator:
         if pair is None:
             return ERROR
         sa, sb = pair
-        items = _broadcast(sa, sb)
+        items = broadcast(sa, sb)
         if items is None:
             return self.err("STL205", f"cannot compare {len(sa.items)} with {len(sb.items)} "
                             "components", n.span)
+        if not all(finite_expr(x) and finite_expr(y) for x, y in items):
+            return self._infinite(n.span)
         label = self.text(n.span)
         preds = []
         for k, (x, y) in enumerate(items):
@@ -170,6 +168,11 @@ class FormulaElaborator:
             lab = label if len(items) == 1 else f"{label} [{k + 1}]"
             preds.append(ir.Pred(e, lab, n.span))
         return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
+
+    def _infinite(self, span: Span) -> ErrorV:
+        return self.err("STL207", "a comparison needs finite numbers on both sides", span,
+                        "`inf` may only be the upper bound of a time interval; drop a "
+                        "comparison with `inf` (it always holds or never does)")
 
     def _numeric_pair(self, a: Value, b: Value, n) -> tuple[Sym, Sym] | None:
         if isinstance(a, ErrorV) or isinstance(b, ErrorV):
@@ -201,9 +204,11 @@ class FormulaElaborator:
             p2 = self._numeric_pair(v, hi, _Pair(n.arg, n.region.hi, n.span))
             if p1 is None or p2 is None:
                 return ERROR
-            i1, i2 = _broadcast(*p1), _broadcast(*p2)
+            i1, i2 = broadcast(*p1), broadcast(*p2)
             if i1 is None or i2 is None:
                 return self.err("STL205", "range and value sizes do not match", n.span)
+            if not all(finite_expr(e) for pair in i1 + i2 for e in pair):
+                return self._infinite(n.span)
             label = self.text(n.span)
             preds = []
             for (x, lo_e), (_, hi_e) in zip(i1, i2):
@@ -282,98 +287,6 @@ def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
     return tuple(out)
 
 
-def _broadcast(a: Sym, b: Sym):
-    if len(a.items) == len(b.items):
-        return list(zip(a.items, b.items))
-    if len(a.items) == 1:
-        return [(a.items[0], y) for y in b.items]
-    if len(b.items) == 1:
-        return [(x, b.items[0]) for x in a.items]
-    return None
-
-
 def _unit_hint(want, got) -> str | None:
     u = units.example_unit(got)
     return f"write the right-hand side in {u}" if u else None
-
-
-# ---------------------------------------------------------------- time bounds and the step
-
-
-def misaligned(t: float, step: float) -> bool:
-    """Is a (finite) time bound off the mission's sample grid?"""
-    if math.isinf(t):
-        return False
-    if not math.isfinite(t / step):
-        return True
-    return not is_aligned(t, step)
-
-
-def nearest_hint(t: float, step: float) -> str | None:
-    q = t / step
-    return f"use {round(q) * step:g} s" if math.isfinite(q) else None
-
-
-def misaligned_intervals(f: ir.Formula, step: float) -> Iterator[tuple[ir.Formula, float]]:
-    """Every temporal node of ``f`` with a bound off the grid of ``step`` (and that bound)."""
-    stack = [f]
-    while stack:
-        g = stack.pop()
-        if isinstance(g, (ir.Always, ir.Eventually, ir.Until, ir.Release)):
-            bad = [t for t in (g.lo, g.hi) if misaligned(t, step)]
-            if bad:
-                yield g, bad[0]
-        stack.extend(reversed(ir.children(g)))
-
-
-# ---------------------------------------------------------------- named specs
-
-
-def named_specs(ck: Checker, members: list[ast.Named], scope: Scope, step: float | None
-                ) -> tuple[dict[str, ir.Formula], dict[str, Span]]:
-    """Elaborate named specs in order (part of the checker pass): a spec may use only the
-    specs before it; a use of a later spec or of itself is STL106 where it is used."""
-    specs: dict[str, ir.Formula] = {}
-    spans: dict[str, Span] = {}
-    seen: dict[str, Span] = {}  # every spec name so far, checked or not
-    pending: dict[str, ast.Named] = {}  # specs not elaborated yet (first of each name)
-    for m in reversed(members):
-        pending[m.name] = m
-    current: list[str] = []
-    ck.el.time.step = step
-
-    def hook(name: str, span: Span) -> Value | None:
-        if current and name == current[0]:
-            ck.d.error("STL106", f"spec `{name}` refers to itself", span,
-                       "a formula cannot be recursive; use `always` or `eventually` to "
-                       "repeat it over time")
-            return ERROR
-        if name in pending:
-            ck.d.error("STL106", f"spec `{name}` is used before it is defined", span,
-                       f"move the definition of `{name}` (line "
-                       f"{pending[name].name_span.line}) above this spec")
-            return ERROR
-        return None
-
-    scope.lookup_hook = hook
-    for m in members:
-        if pending.get(m.name) is m:
-            del pending[m.name]
-        prev = seen.get(m.name)
-        if prev is None and scope.get(m.name) is not None:
-            prev = ck.defined.get(m.name)  # a vehicle, signal, constant, ...
-        if prev is not None:
-            ck.d.error("STL102", f"`{m.name}` is already defined"
-                       + (f" (line {prev.line})" if prev.known else ""),
-                       m.name_span, "rename this spec")
-            continue
-        seen[m.name] = m.name_span
-        current[:] = [m.name]
-        f = ck.el.formula(m.value, scope)
-        current.clear()
-        scope.names[m.name] = ERROR if f is None else Form(f)
-        if f is not None:
-            specs[m.name] = f
-            spans[m.name] = m.span
-    scope.lookup_hook = None
-    return specs, spans

@@ -1,24 +1,25 @@
-"""Checking a ``mission`` block: time grid, team, named specs, requirement, objective,
-smoothing, risk cases and replanning options (part of the checker pass)."""
+"""Checking a ``mission`` block: time grid (STL305 for a bad horizon or step), team, named
+specs, requirement, objective, smoothing, dwell times of paper B's payload rule
+(``install_time``, ``refill_time``), risk cases and replanning options.
+
+Part of the checker (``stlc.check``): ``check_mission`` takes the checker ``Context``;
+mission fields are evaluated in the mission's scope, so they may use its constants."""
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-from stlc import ast, ir, model, units
+from stlc import ast, ir, model
+from stlc.check import units
+from stlc.check.context import Context, misaligned_intervals, nearest_hint
+from stlc.check.values import GroupV, StrV, VehicleV
 from stlc.diagnostics import Span, did_you_mean
-from stlc.formulas import misaligned_intervals, nearest_hint
 from stlc.timegrid import is_aligned
-from stlc.values import GroupV, StrV, VehicleV
-
-if TYPE_CHECKING:
-    from stlc.check import Checker
 
 MISSION_FIELDS = {
     "vehicles": False, "team": False, "vehicle": False, "horizon": True, "step": True,
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
-    "integrator": False, "max_iter": False,
+    "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare")
 MAX_SAMPLES = 20_000
@@ -27,27 +28,26 @@ MAX_SEED = 2**63 - 1
 OBJECTIVE_TERMS = ("robustness", "energy", "forward_cost")
 
 
-def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
+def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
                   ) -> model.Mission | None:
     name = b.name or "mission"
-    if not ck._define(name, b.name_span, "mission"):
+    if not ck.define(name, b.name_span, "mission"):
         return None
-    el = ck.el
-    f = ck._fields(b, MISSION_FIELDS, sub_blocks=MISSION_BLOCKS, named_kinds=("spec", "const"))
+    f = ck.fields(b, MISSION_FIELDS, sub_blocks=MISSION_BLOCKS, named_kinds=("spec", "const"))
     for m in b.members:
         if isinstance(m, ast.Named) and m.kind not in ("spec", "const"):
-            ck._bad_kind(m.kind, m.span, ("spec", "const"), "in a mission")
+            ck.bad_kind(m.kind, m.span, ("spec", "const"), "in a mission")
         elif isinstance(m, ast.Block) and m.kind not in MISSION_BLOCKS:
-            ck._bad_kind(m.kind, m.span, MISSION_BLOCKS, "in a mission")
+            ck.bad_kind(m.kind, m.span, MISSION_BLOCKS, "in a mission")
         elif isinstance(m, (ast.Signals, ast.Uncertain)):
             ck.d.error("STL108", "not allowed in a mission", m.span,
                        "declare signals at the top level and uncertainty in the scenario")
     scope = ck.globals.child({})
-    ck._consts([m for m in b.members if isinstance(m, ast.Named) and m.kind == "const"], scope)
+    ck.consts([m for m in b.members if isinstance(m, ast.Named) and m.kind == "const"], scope)
 
     # time grid
-    horizon = ck._num(f, "horizon", units.TIME, positive=True)
-    step = ck._num(f, "step", units.TIME, positive=True)
+    horizon = _grid_time(ck, f, "horizon", scope)
+    step = _grid_time(ck, f, "step", scope)
     if horizon is not None and step is not None:
         if horizon / step > MAX_SAMPLES:  # first: a tiny step overflows the alignment test
             ck.d.error("STL305", f"{horizon / step:.3g} samples is more than the limit "
@@ -64,7 +64,7 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
 
     # named specs, requirement
     specs_members = [m for m in b.members if isinstance(m, ast.Named) and m.kind == "spec"]
-    specs, spans = ck._specs(specs_members, scope, step)
+    specs, spans = ck.named_specs(specs_members, scope, step)
     all_specs = {**top_specs, **specs}
     reqs = [m for m in b.members if isinstance(m, ast.Require)]
     requirement = None
@@ -75,9 +75,9 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
         ck.d.error("STL102", "a mission has one `require`", extra.span,
                    "combine the requirements with `and`")
     if reqs:
-        el.time.step = step
-        requirement = el.formula(reqs[0].value, scope)
-        el.time.step = None
+        ck.step = step
+        requirement = ck.formula(reqs[0].value, scope)
+        ck.step = None
     if step is not None:
         _check_inlined_steps(ck, b, name, step, [requirement, *specs.values()])
     if requirement is not None and horizon is not None and step is not None:
@@ -94,8 +94,9 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
 
     objective = _objective(ck, b, scope)
     smoothing = _smoothing(ck, f, scope)
-    threshold = ck._num(f, "threshold", None, 0.0)
-    fwd = ck._num(f, "forward_speed", units.SPEED, positive=True)
+    threshold = ck.num(f, "threshold", None, 0.0, scope=scope)
+    fwd = ck.num(f, "forward_speed", units.SPEED, positive=True, scope=scope)
+    dwell = {k: _dwell(ck, f, k, horizon, scope) for k in ("install_time", "refill_time")}
     if objective is not None and fwd is not None:
         objective = model.Objective(objective.robustness_weight, objective.energy_weight,
                                     objective.forward_weight, fwd)
@@ -107,7 +108,7 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
             ck.d.error("STL207", "`integrator` is `rk4` or `euler`", v.span)
         options["integrator"] = txt
     if "max_iter" in f:
-        mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT)
+        mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT, scope)
         if mi is not None:
             options["max_iter"] = mi
     compares = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "compare"]
@@ -121,12 +122,38 @@ def check_mission(ck: Checker, b: ast.Block, top_specs: dict[str, ir.Formula]
         name=name, vehicles=tuple(vehicles), horizon=horizon, step=step,  # type: ignore
         specs=specs, requirement=requirement, objective=objective,  # type: ignore
         threshold=threshold, smoothing=smoothing, risk=risk, replan=replan,  # type: ignore
-        options=options, span=b.span, spec_spans=spans)
+        options=options, span=b.span, spec_spans=spans,
+        install_time=dwell["install_time"], refill_time=dwell["refill_time"])
 
 
-def _whole(ck: Checker, node: ast.Node, what: str, lo: int, hi: int) -> int | None:
+def _grid_time(ck: Context, f: dict, key: str, scope) -> float | None:
+    """``horizon`` or ``step``: a positive, finite time (STL305 otherwise)."""
+    m = f.get(key)
+    if m is None:
+        return None
+    x = ck.number(m.value, scope, units.TIME, f"`{key}`")
+    if x is not None and not (math.isfinite(x) and x > 0):
+        ck.d.error("STL305", f"`{key}` must be a positive, finite time, found {x:g} s",
+                   m.value.span, "e.g. `horizon = 20 s` and `step = 0.1 s`")
+        return None
+    return x
+
+
+def _dwell(ck: Context, f: dict, key: str, horizon: float | None, scope) -> float | None:
+    """``install_time`` / ``refill_time`` (paper B's payload rule): a time in (0, horizon],
+    or None if it is absent or wrong (reported; the pass then fails)."""
+    x = ck.num(f, key, units.TIME, positive=True, scope=scope)
+    if x is not None and horizon is not None and x > horizon * (1 + 1e-12):
+        ck.d.error("STL207", f"`{key}` {x:g} s is longer than the mission horizon "
+                   f"{horizon:g} s", f[key].value.span, "shorten it or lengthen the horizon")
+        return None
+    return x
+
+
+def _whole(ck: Context, node: ast.Node, what: str, lo: int, hi: int, scope=None
+           ) -> int | None:
     """A whole number in [lo, hi] (finite: ``int()`` of inf or nan would crash)."""
-    x = ck.el.number(node, ck.globals, None, f"`{what}`")
+    x = ck.number(node, scope or ck.globals, units.DIMLESS, f"`{what}`")
     if x is None:
         return None
     if not (math.isfinite(x) and x == round(x) and lo <= x <= hi):
@@ -136,7 +163,7 @@ def _whole(ck: Checker, node: ast.Node, what: str, lo: int, hi: int) -> int | No
     return int(x)
 
 
-def _check_inlined_steps(ck: Checker, b: ast.Block, name: str, step: float,
+def _check_inlined_steps(ck: Context, b: ast.Block, name: str, step: float,
                          formulas: list[ir.Formula | None]) -> None:
     """Time bounds written in the mission are checked against its step as they are
     elaborated; a top-level spec used here was elaborated without a step, so its intervals
@@ -161,7 +188,7 @@ def _contains(outer: Span, inner: Span) -> bool:
             and (inner.end_line, inner.end_col) <= (outer.end_line, outer.end_col))
 
 
-def _team(ck: Checker, b: ast.Block, f: dict) -> list[str]:
+def _team(ck: Context, b: ast.Block, f: dict) -> list[str]:
     keys = [k for k in ("vehicles", "team", "vehicle") if k in f]
     if len(keys) > 1:
         ck.d.error("STL102", "give the mission's vehicles once", f[keys[1]].span)
@@ -188,14 +215,14 @@ def _team(ck: Checker, b: ast.Block, f: dict) -> list[str]:
     return out
 
 
-def _check_team_refs(ck: Checker, f: ir.Formula, team: list[str], span: Span, name: str):
+def _check_team_refs(ck: Context, f: ir.Formula, team: list[str], span: Span, name: str):
     used = {s.split(".")[0] for s in ir.signals(f)}
     for v in sorted(used & set(ck.vehicles) - set(team)):
         ck.d.error("STL101", f"vehicle `{v}` is not part of mission `{name}`", span,
                    f"add it: `vehicles = [{', '.join(team + [v])}]`")
 
 
-def _objective(ck: Checker, b: ast.Block, scope) -> model.Objective | None:
+def _objective(ck: Context, b: ast.Block, scope) -> model.Objective | None:
     objs = [m for m in b.members if isinstance(m, ast.Objective)]
     if not objs:
         return model.Objective()
@@ -217,7 +244,7 @@ def _objective(ck: Checker, b: ast.Block, scope) -> model.Objective | None:
                            forward_weight=w.get("forward_cost", 0.0))
 
 
-def _linear(ck: Checker, n: ast.Node, scope) -> dict[str, float] | None:
+def _linear(ck: Context, n: ast.Node, scope) -> dict[str, float] | None:
     """A linear combination of objective terms with constant weights."""
     match n:
         case ast.Path(parts) if len(parts) == 1 and parts[0] in OBJECTIVE_TERMS:
@@ -234,7 +261,9 @@ def _linear(ck: Checker, n: ast.Node, scope) -> dict[str, float] | None:
         case ast.Binary("*", left, right):
             for c, t in ((left, right), (right, left)):
                 if not _mentions_term(c):
-                    k = ck.el.number(c, scope, None, "an objective weight")
+                    k = ck.number(c, scope, None, "an objective weight")
+                    if k is not None and not ck.finite(k, "an objective weight", c.span):
+                        return None
                     terms = _linear(ck, t, scope)
                     if k is None or terms is None:
                         return None
@@ -258,37 +287,37 @@ def _mentions_term(n: ast.Node) -> bool:
     return any(_mentions_term(c) for c in ast.node_children(n))
 
 
-def _smoothing(ck: Checker, f: dict, scope) -> model.Smoothing | None:
+def _smoothing(ck: Context, f: dict, scope) -> model.Smoothing | None:
     method = "gkl"
     if "smoothing" in f:
         node = f["smoothing"].value
-        v = ck.el.value(node, scope) if not isinstance(node, ast.Path) else None
+        v = ck.value(node, scope) if not isinstance(node, ast.Path) else None
         txt = node.parts[0] if isinstance(node, ast.Path) else (v.s if isinstance(v, StrV)
-                                                                  else "")
+                                                                else "")
         if txt not in ("gkl", "lse"):
             ck.d.error("STL207", f"unknown smoothing `{txt}`", node.span,
                        "`gkl` (Gilpin–Kurtz–Lin, sound) or `lse` (log-sum-exp)")
             method = None
         else:
             method = txt
-    lam = ck._num(f, "lambda", None, 10.0, positive=True)  # checked either way
+    lam = ck.num(f, "lambda", units.DIMLESS, 10.0, positive=True, scope=scope)  # checked either way
     return None if lam is None or method is None else model.Smoothing(method, lam)
 
 
-def _in_unit(ck: Checker, node: ast.Node, lo: float, hi: float, what: str) -> float | None:
-    x = ck.el.number(node, ck.globals, None, what)
+def _in_unit(ck: Context, node: ast.Node, lo: float, hi: float, what: str) -> float | None:
+    x = ck.number(node, ck.globals, units.DIMLESS, f"`{what}`")
     if x is not None and not lo < x < hi:
         ck.d.error("STL207", f"{what} must be in ({lo:g}, {hi:g}), found {x:g}", node.span)
         return None
     return x
 
 
-def _risk(ck: Checker, b: ast.Block) -> model.RiskConfig | None:
+def _risk(ck: Context, b: ast.Block) -> model.RiskConfig | None:
     blocks = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "risk"]
     if not blocks:
         return None
     rb = blocks[0]  # a second one is reported by check_mission (`_fields`)
-    f = ck._fields(rb, {"K": False, "delta": False, "beta": False, "seed": False})
+    f = ck.fields(rb, {"K": False, "delta": False, "beta": False, "seed": False})
     K, delta, seed, betas = 15000, 0.01, 0, (0.7, 0.8, 0.9)
     if "K" in f:
         K = _whole(ck, f["K"].value, "K", 1, MAX_COUNT) or K
@@ -315,7 +344,7 @@ def _risk(ck: Checker, b: ast.Block) -> model.RiskConfig | None:
             dists = []
             for cm in m.members:
                 if isinstance(cm, ast.Uncertain):
-                    d = ck._uncertain(cm, None, attach=False)
+                    d = ck.uncertain(cm, None, attach=False)
                     if d is not None:
                         dists.append(d)
                 else:
@@ -323,7 +352,7 @@ def _risk(ck: Checker, b: ast.Block) -> model.RiskConfig | None:
                                cm.span)
             cases.append(model.RiskCase(cname, tuple(dists), m.span))
         elif isinstance(m, ast.Block):
-            ck._bad_kind(m.kind, m.span, ("case",), "in a risk block")
+            ck.bad_kind(m.kind, m.span, ("case",), "in a risk block")
     if not cases:
         base = tuple(d for h in ck.humans.values() for d in h.uncertain)
         if not base:
@@ -333,16 +362,16 @@ def _risk(ck: Checker, b: ast.Block) -> model.RiskConfig | None:
     return model.RiskConfig(tuple(cases), K, tuple(betas), delta, seed)
 
 
-def _replan(ck: Checker, b: ast.Block, specs: dict) -> model.ReplanConfig | None:
+def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None:
     blocks = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "replan"]
     if not blocks:
         return None
-    f = ck._fields(blocks[0], {"threshold": False, "event_period": False,
-                               "waypoint_period": False, "budget": False, "keep": False})
-    thr = ck._num(f, "threshold", units.LENGTH, 1.0, positive=True)
-    te = ck._num(f, "event_period", units.TIME, 0.5, positive=True)
-    tg = ck._num(f, "waypoint_period", units.TIME, 1.0, positive=True)
-    tc = ck._num(f, "budget", units.TIME, 0.4, positive=True)
+    f = ck.fields(blocks[0], {"threshold": False, "event_period": False,
+                              "waypoint_period": False, "budget": False, "keep": False})
+    thr = ck.num(f, "threshold", units.LENGTH, 1.0, positive=True)
+    te = ck.num(f, "event_period", units.TIME, 0.5, positive=True)
+    tg = ck.num(f, "waypoint_period", units.TIME, 1.0, positive=True)
+    tc = ck.num(f, "budget", units.TIME, 0.4, positive=True)
     keep: list[str] = []
     if "keep" in f:
         node = f["keep"].value

@@ -1,25 +1,24 @@
 """Elaboration of expressions: AST nodes → checked values and IR.
 
-``Elaborator.value(node, scope)`` evaluates constants (with units converted to SI), turns
-references to vehicle fields and human poses into scalar IR expressions and inlines named
-specs; the formula nodes (comparisons, region membership, ranges, temporal operators and
-quantifiers) are elaborated by the ``stlc.formulas`` mixin.  Every mistake becomes a
-diagnostic in the shared ``Collector`` and an ``ErrorV`` value, so one pass reports all
-independent errors.
+``ExpressionElaborator.value(node, scope)`` evaluates constants (with units converted to
+SI), turns references to vehicle fields and human poses into scalar IR expressions and
+inlines named specs; the formula nodes (comparisons, region membership, ranges, temporal
+operators and quantifiers) are ``stlc.check.formulas``'s and calls go to the built-in
+functions (``Context.functions``).  Every mistake becomes a diagnostic in the context's
+``Collector`` and an ``ErrorV`` value, so one pass reports all independent errors; a
+constant that comes out as NaN is reported where it is computed.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from stlc import ast, ir, model, units
-from stlc.diagnostics import Collector, Span, did_you_mean
-from stlc.formulas import FormulaElaborator, _broadcast
-from stlc.values import (
+from stlc import ast, ir, model
+from stlc.check import units
+from stlc.check.context import Context, Scope
+from stlc.check.values import (
     ERROR,
     DistV,
     ErrorV,
@@ -33,6 +32,7 @@ from stlc.values import (
     Value,
     VehicleV,
     add,
+    broadcast,
     const,
     div,
     kind_name,
@@ -41,6 +41,7 @@ from stlc.values import (
     sub,
     to_sym,
 )
+from stlc.diagnostics import Span, did_you_mean
 
 BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None),
                   "g0": (9.81, units.ACCEL)}
@@ -49,126 +50,20 @@ FUNCTIONS = ("abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "a
 AXIS_NAMES = {"x": 0, "y": 1, "z": 2, "roll": 0, "pitch": 1, "yaw": 2}
 
 
-@dataclass
-class Scope:
-    """Name → value bindings, innermost first through ``parent``."""
+class ExpressionElaborator(Context):
+    """Evaluation of expressions (the formula nodes are ``FormulaElaborator``'s)."""
 
-    names: dict[str, Value] = field(default_factory=dict)
-    parent: Scope | None = None
-    #: names whose value is computed on first use (named specs, to report use-before-def)
-    lookup_hook: Callable[[str, Span], Value | None] | None = None
-
-    def get(self, name: str) -> Value | None:
-        s: Scope | None = self
-        while s is not None:
-            if name in s.names:
-                return s.names[name]
-            s = s.parent
-        return None
-
-    def all_names(self) -> set[str]:
-        out: set[str] = set()
-        s: Scope | None = self
-        while s is not None:
-            out |= set(s.names)
-            s = s.parent
-        return out
-
-    def hook(self, name: str, span: Span) -> Value | None:
-        """Ask the innermost ``lookup_hook`` about a name that is not bound."""
-        s: Scope | None = self
-        while s is not None:
-            if s.lookup_hook is not None:
-                return s.lookup_hook(name, span)
-            s = s.parent
-        return None
-
-    def child(self, names: dict[str, Value]) -> Scope:
-        return Scope(dict(names), self)
-
-
-@dataclass
-class TimeCtx:
-    step: float | None = None  # mission step (alignment checks) or None
-
-
-class Elaborator(FormulaElaborator):
-    def __init__(self, diags: Collector, source: str, file: str):
-        self.d = diags
-        self.lines = source.splitlines()
-        self.file = file
-        self.time = TimeCtx()
-        self._inside = False  # inside a call of ``value`` (see there)
-
-    # ------------------------------------------------------------ helpers
-    def text(self, span: Span) -> str:
-        """The source text of a span (single line; for predicate labels)."""
-        if not span.known or span.line > len(self.lines):
-            return ""
-        line = self.lines[span.line - 1]
-        if span.end_line == span.line:
-            return line[span.col - 1: span.end_col - 1].strip()
-        return line[span.col - 1:].strip() + " …"
-
-    def err(self, code: str, msg: str, span: Span, help: str | None = None) -> ErrorV:
-        self.d.error(code, msg, span, help)
-        return ERROR
-
-    # ------------------------------------------------------------ constants
-    def number(self, node: ast.Node, scope: Scope, want: units.Dim | None = None,
-               what: str = "value") -> float | None:
-        """A constant scalar in SI units, checked against the expected dimension."""
-        v = self.value(node, scope)
-        if isinstance(v, ErrorV):
-            return None
-        if not isinstance(v, Num) or not v.is_scalar:
-            self.err("STL210", f"expected a constant number for {what}, found {kind_name(v)}"
-                     if not isinstance(v, Num) else f"expected a single number for {what}",
-                     node.span)
-            return None
-        if not self._unit_ok(v, want, what, node.span, f"write it like `{_example(want)}`"):
-            return None
-        return float(v.v)
-
-    def vector(self, node: ast.Node, scope: Scope, n: int | None, want: units.Dim | None,
-               what: str) -> np.ndarray | None:
-        v = self.value(node, scope)
-        if isinstance(v, ErrorV):
-            return None
-        if not isinstance(v, Num):
-            self.err("STL210", f"expected constant numbers for {what}, found {kind_name(v)}",
-                     node.span)
-            return None
-        arr = np.atleast_1d(v.v).astype(float)
-        if n is not None and arr.shape != (n,):
-            if arr.shape == (1,):
-                arr = np.repeat(arr, n)
-            else:
-                self.err("STL205", f"{what} needs {n} components, found {arr.size}", node.span,
-                         f"write {n} numbers in parentheses, e.g. ({', '.join(['0'] * n)})")
-                return None
-        if not self._unit_ok(v, want, what, node.span, f"add the unit, e.g. `{_example(want)}`"):
-            return None
-        return arr
-
-    def _unit_ok(self, v: Num, want: units.Dim | None, what: str, span: Span,
-                 help: str) -> bool:
-        """Report STL204 unless the constant ``v`` has the dimension ``want`` (or none)."""
-        if want is None or units.compatible(v.dim, want):
-            return True
-        self.err("STL204", f"unit mismatch: {what} must be {units.describe(want)}, "
-                 f"found {units.describe(v.dim)}", span, help)
-        return False
+    _inside = False  # inside a call of ``value`` (see there)
 
     # ------------------------------------------------------------ generic evaluation
     def value(self, node: ast.Node, scope: Scope) -> Value:
         method = getattr(self, "_v_" + type(node).__name__.lower())
         if self._inside:
-            return method(node, scope)
+            return _defined(self, method(node, scope), node)
         # the outermost call: a formula nested deeper than Python's stack is a diagnostic
         self._inside = True
         try:
-            return method(node, scope)
+            return _defined(self, method(node, scope), node)
         except RecursionError:
             return self.err("STL004", "formula nested too deeply", node.span,
                             "name sub-formulas with `spec` instead")
@@ -200,16 +95,22 @@ class Elaborator(FormulaElaborator):
                 if v.dim is not None and v.dim != units.DIMLESS:
                     return self.err("STL204", f"`{n.unit}` applied to a value that already "
                                     f"has a unit ({units.describe(v.dim)})", n.span)
-                return Num(v.v * scale, dim)
+                with np.errstate(over="ignore"):  # inf is reported where it is used
+                    return Num(v.v * scale, dim)
             case RegionV(name, box):
                 if dim != units.LENGTH:
                     return self.err("STL204", f"unit mismatch: a region is measured in "
                                     f"lengths, found {units.describe(dim)}", n.span,
                                     "write its corners in m, e.g. box(lo, hi) m")
-                return RegionV(name, model.Box(tuple(x * scale for x in box.lo),  # type: ignore
-                                               tuple(x * scale for x in box.hi), box.frame))
+                with np.errstate(over="ignore"):  # an overflow to inf is reported below
+                    lo, hi = np.array(box.lo) * scale, np.array(box.hi) * scale
+                if not self.finite(np.concatenate([lo, hi]), "the corners of a box", n.span):
+                    return ERROR
+                return RegionV(name, model.Box(tuple(map(float, lo)),  # type: ignore[arg-type]
+                                               tuple(map(float, hi)), box.frame))
             case DistV(mean, cov, _):
-                return DistV(mean * scale, cov * scale * scale, dim)
+                with np.errstate(over="ignore"):  # reported by `value` if not finite
+                    return DistV(mean * scale, cov * scale * scale, dim)
             case ErrorV():
                 return v
             case Sym():
@@ -312,9 +213,6 @@ class Elaborator(FormulaElaborator):
                 return self.err("STL103", f"region `{name}` has no field `{part}`", span)
         return self.err("STL103", f"`{prefix}` ({kind_name(v)}) has no field `{part}`", span)
 
-    #: set by the checker: human name → {region name: RegionV}
-    human_regions: dict[str, dict[str, RegionV]] = {}
-
     def _regions_of(self, human: str) -> dict[str, RegionV]:
         return self.human_regions.get(human, {})
 
@@ -377,7 +275,7 @@ class Elaborator(FormulaElaborator):
                 return self.err("STL205", "vector sizes do not match", n.span)
             return Num(np.asarray(r, dtype=float), dim)
         sa, sb = (to_sym(a) if isinstance(a, Num) else a), (to_sym(b) if isinstance(b, Num) else b)
-        items = _broadcast(sa, sb)
+        items = broadcast(sa, sb)
         if items is None:
             return self.err("STL205", f"vector sizes do not match ({len(sa.items)} and "
                             f"{len(sb.items)})", n.span)
@@ -390,13 +288,11 @@ class Elaborator(FormulaElaborator):
 
     # ------------------------------------------------------------ calls
     def _v_call(self, n: ast.Call, scope: Scope) -> Value:
-        from stlc import builtins  # local import: builtins needs this module's classes
-
-        fn = builtins.FUNCS.get(n.fn)
+        fn = self.functions.get(n.fn)
         if fn is None:
             return self.err("STL107", f"unknown function `{n.fn}`", _head_span_call(n),
-                            did_you_mean(n.fn, builtins.FUNCS) or
-                            "functions: " + ", ".join(sorted(builtins.FUNCS)))
+                            did_you_mean(n.fn, self.functions) or
+                            "functions: " + ", ".join(sorted(self.functions)))
         return fn(self, n, scope)
 
 
@@ -465,9 +361,17 @@ def _common_dim(dims):
     return known.pop() if known else None
 
 
-def _example(d: units.Dim | None) -> str:
-    u = units.example_unit(d)
-    return f"1 {u}" if u else "1"
+def _defined(ctx: Context, v: Value, node: ast.Node) -> Value:
+    """``v``, or STL207 where constant arithmetic first produced NaN (``inf - inf``)."""
+    if isinstance(v, Num) and np.isnan(v.v).any():
+        return ctx.err("STL207", "this value is not a number (NaN)", node.span,
+                       "check the arithmetic: `inf - inf`, `0 * inf` and `inf / inf` "
+                       "are undefined")
+    if isinstance(v, DistV) and not (np.all(np.isfinite(v.mean)) and
+                                     np.all(np.isfinite(v.cov))):
+        return ctx.err("STL207", "a distribution must have a finite mean and covariance",
+                       node.span)
+    return v
 
 
 def _head_span(n: ast.Path) -> Span:
