@@ -5,17 +5,12 @@ mission's risk cases → ``risk.json`` data and per-realisation samples (paper A
 exact and smooth robustness of the requirement and of each named spec for all K
 realisations in one shared evaluation (``stlc.risk.shared_robustness``), then summarises
 VaR/CVaR with DKW bounds, the violation probability, the spec that drives the violations
-and a histogram (``stlc.risk``).  ``risk_file`` is ``stlc risk FILE --trajectory CSV``:
-it reads a compiled plan's ``trajectory.csv`` (states, inputs and derived channels),
-writes ``risk.json`` and ``risk_samples.npz`` and prints a short table; a bad file or
-mission name is reported as diagnostics (exit 1), never as a traceback.
+and a histogram (``stlc.risk``).  ``select_mission`` picks the mission
+that ``stlc risk FILE --trajectory CSV`` assesses and ``risk_table`` prints its summary (the
+command itself is ordered by ``stlc.pipeline.risk_file``).
 """
 
 from __future__ import annotations
-
-import json
-import os
-import sys
 
 from stlc import ir, model
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
@@ -44,7 +39,7 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
     return {"mission": mission.name, "cases": [r.to_json() for r in results]}, results
 
 
-def _missions(path: str, program: model.Program, mission: str | None) -> model.Mission:
+def select_mission(path: str, program: model.Program, mission: str | None) -> model.Mission:
     """The mission to assess: ``mission``, or the only one with a ``risk`` block."""
     where = Span(path, 1, 1, 1, 2)
     with_risk = [m for m, mm in program.missions.items() if mm.risk is not None]
@@ -69,49 +64,6 @@ def _missions(path: str, program: model.Program, mission: str | None) -> model.M
     raise StlcError([Diagnostic("STL109", f"{path} has {len(with_risk)} missions with a "
                                 "`risk` block: which one planned this trajectory?", where,
                                 "pass --mission NAME (one of " + ", ".join(with_risk) + ")")])
-
-
-def risk_file(path: str, trajectory: str, mission: str | None = None,
-              out: str | None = None) -> int:
-    """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
-    cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
-    (default: the trajectory's directory) and prints a table."""
-    from stlc.pipeline import load
-    from stlc.risk import RiskError, SamplingError, save_samples
-    from stlc.trace import check_signals, read_trace
-
-    program = load(path).program
-    m = _missions(path, program, mission)
-    trace = read_trace(trajectory)
-    needed = set(ir.signals(m.requirement))
-    for s in mission_specs(program, m).values():
-        needed |= ir.signals(s.formula)
-    check_signals(trace, needed)
-    sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
-    try:
-        risk_json, results = run_risk(program, m, sol, dt=trace.dt)
-    except (RiskError, SamplingError) as e:
-        raise StlcError([Diagnostic("STL209", f"cannot assess the risk cases of `{m.name}`: "
-                                    f"{e}", m.span, "check the risk block's distributions")]
-                        ) from None
-    outdir = out or os.path.dirname(os.path.abspath(trajectory))
-    try:
-        os.makedirs(outdir, exist_ok=True)
-        target = os.path.join(outdir, "risk.json")
-        with open(target + ".tmp", "w") as fh:
-            json.dump(risk_json, fh, indent=2, allow_nan=False)
-        os.replace(target + ".tmp", target)
-        save_samples(os.path.join(outdir, "risk_samples.npz"), results)
-    except OSError as e:
-        raise StlcError([Diagnostic("STL601", f"cannot write the risk outputs to `{outdir}`: "
-                                    f"{e.strerror or e}", Span(path, 1, 1, 1, 2),
-                                    "pass a writable directory with -o DIR")]) from None
-    print(risk_table(risk_json, trace.path))
-    print(f"→ {target}")
-    if trace.n > 1 and abs(trace.dt - m.step) > 1e-9 * m.step:
-        print(f"note: the trajectory's step is {trace.dt:g} s, the mission's {m.step:g} s; "
-              "windows were taken at the trajectory's step", file=sys.stderr)
-    return EXIT_OK
 
 
 def risk_table(risk_json: dict, source: str = "") -> str:

@@ -130,7 +130,7 @@ def cmd_compile(args) -> int:
 
 
 def cmd_risk(args) -> int:
-    from stlc.assess import risk_file
+    from stlc.pipeline import risk_file
 
     return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out)
 

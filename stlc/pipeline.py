@@ -8,6 +8,7 @@ the passes.  Outputs are written once, after everything they contain exists.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -163,3 +164,48 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code
+
+
+def risk_file(path: str, trajectory: str, mission: str | None = None,
+              out: str | None = None) -> int:
+    """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
+    cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
+    (default: the trajectory's directory) and prints a table."""
+    from stlc.assess import risk_table, run_risk, select_mission
+    from stlc.planning.problem import mission_specs
+    from stlc.risk import RiskError, SamplingError, save_samples
+    from stlc.solution import Solution
+    from stlc.trace import check_signals, read_trace
+
+    program = load(path).program
+    m = select_mission(path, program, mission)
+    trace = read_trace(trajectory)
+    needed = set(ir.signals(m.requirement))
+    for s in mission_specs(program, m).values():
+        needed |= ir.signals(s.formula)
+    check_signals(trace, needed)
+    sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
+    try:
+        risk_json, results = run_risk(program, m, sol, dt=trace.dt)
+    except (RiskError, SamplingError) as e:
+        raise StlcError([Diagnostic("STL209", f"cannot assess the risk cases of `{m.name}`: "
+                                    f"{e}", m.span, "check the risk block's distributions")]
+                        ) from None
+    outdir = out or os.path.dirname(os.path.abspath(trajectory))
+    try:
+        os.makedirs(outdir, exist_ok=True)
+        target = os.path.join(outdir, "risk.json")
+        with open(target + ".tmp", "w") as fh:
+            json.dump(risk_json, fh, indent=2, allow_nan=False)
+        os.replace(target + ".tmp", target)
+        save_samples(os.path.join(outdir, "risk_samples.npz"), results)
+    except OSError as e:
+        raise StlcError([Diagnostic("STL601", f"cannot write the risk outputs to `{outdir}`: "
+                                    f"{e.strerror or e}", Span(path, 1, 1, 1, 2),
+                                    "pass a writable directory with -o DIR")]) from None
+    print(risk_table(risk_json, trace.path))
+    print(f"→ {target}")
+    if trace.n > 1 and abs(trace.dt - m.step) > 1e-9 * m.step:
+        print(f"note: the trajectory's step is {trace.dt:g} s, the mission's {m.step:g} s; "
+              "windows were taken at the trajectory's step", file=sys.stderr)
+    return 0
