@@ -77,16 +77,36 @@ Expr = Const | Sig | Param | Neg | Bin | Call
 
 
 @dataclass(frozen=True, slots=True)
+class Bound:
+    """The structure of a simple predicate ``side ≤ value`` (``upper``) or ``side ≥ value``
+    (``lower``): which signal it bounds (its canonical name, e.g. ``uav1.speed``,
+    ``uav1.rotor_speed.2``, or the source text of an expression), the bounded expression
+    itself, and the bound in SI units.  Reports read limits from here, never from labels."""
+
+    signal: str
+    side: str  # "upper" | "lower"
+    value: float
+    expr: Expr
+    calls: frozenset[str] = frozenset()  # functions written on the bounded side (dist, …)
+
+    def negated(self) -> Bound:
+        return Bound(self.signal, "lower" if self.side == "upper" else "upper", self.value,
+                     self.expr, self.calls)
+
+
+@dataclass(frozen=True, slots=True)
 class Pred:
     """Atomic predicate ``expr >= 0``; its robustness is the value of ``expr``.
 
     ``label`` is the human-readable source text (e.g. ``"uav1.pos.z <= 2.5"``) used by
-    reports to say which predicate binds.
+    reports to say which predicate binds; ``bound`` keeps the structure of a predicate that
+    compares a signal with a constant.
     """
 
     expr: Expr
     label: str = ""
     span: Span = field(default=NO_SPAN, compare=False)
+    bound: Bound | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -207,8 +227,11 @@ def normalize(f: Formula) -> Formula:
 
 def _nnf(f: Formula, neg: bool) -> Formula:
     match f:
-        case Pred(expr, label, span):
-            return Pred(negate_expr(expr), _negate_label(label), span) if neg else f
+        case Pred(expr, label, span, bound):
+            if not neg:
+                return f
+            return Pred(negate_expr(expr), _negate_label(label), span,
+                        bound.negated() if bound is not None else None)
         case TrueF(span):
             return FalseF(span) if neg else f
         case FalseF(span):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from stlc.diagnostics import Span
-from stlc.ir import Always, And, Bin, Const, Eventually, Or, Pred, Sig
+from stlc.ir import Always, And, Bin, Bound, Const, Eventually, Or, Pred, Sig
 from stlc.model import (
     Box,
     Human,
@@ -388,9 +388,12 @@ def test_signal_plots_with_bounds(view):
 def test_bounds_span_the_window_of_the_spec_that_states_them():
     program, mission, sol = synthetic_case()
     comfort = Always(1.0, 2.0, And((
-        Pred(Bin("-", Const(2.0), Sig("uav1.speed")), "uav1.speed <= 2 m/s", span(14)),
+        Pred(Bin("-", Const(2.0), Sig("uav1.speed")), "uav1.speed <= 2 m/s", span(14),
+             Bound("uav1.speed", "upper", 2.0, Sig("uav1.speed"))),
         Pred(Bin("-", Sig("uav1.rotor_speed.1"), Const(40.0)),
-             "uav1.rotor_speed in [40 Hz, 80 Hz] (lower)", span(14)))), span(14))
+             "uav1.rotor_speed in [40 Hz, 80 Hz] (lower)", span(14),
+             Bound("uav1.rotor_speed.1", "lower", 40.0, Sig("uav1.rotor_speed.1"))))),
+        span(14))
     specs = {**mission.specs, "comfort": comfort}
     mission = replace(mission, specs=specs)
     sol.specs["comfort"] = SpecResult(0.3, 0.2, True, 1.5, "uav1.speed <= 2 m/s", 14)
@@ -412,7 +415,8 @@ def test_hovering_masks_the_direction_of_motion():
         ch[f"uav1.vel.{a}"] = np.where(sol.times < 0.5, 0.0, ch[f"uav1.vel.{a}"])
     ch["uav1.course"] = np.arctan2(ch["uav1.vel.y"], ch["uav1.vel.x"])
     hover = Pred(Bin("-", Const(0.1), Sig("uav1.horizontal_speed")),
-                 "uav1.horizontal_speed <= 0.1 m/s", span(14))
+                 "uav1.horizontal_speed <= 0.1 m/s", span(14),
+                 Bound("uav1.horizontal_speed", "upper", 0.1, Sig("uav1.horizontal_speed")))
     mission = replace(mission, requirement=And((mission.requirement, hover)))
     plots = {p["id"]: p for p in build_view(program, mission,
                                             replace(sol, channels=ch))["signals"]["plots"]}

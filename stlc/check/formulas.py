@@ -9,6 +9,7 @@ predicate must compare finite numbers: ``x <= inf`` is STL207 where it is writte
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
@@ -163,10 +164,19 @@ class FormulaElaborator(Context):
             return self._infinite(n.span)
         label = self.text(n.span)
         preds = []
+        la, lb = _labels(sa, len(items)), _labels(sb, len(items))
         for k, (x, y) in enumerate(items):
             e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
             lab = label if len(items) == 1 else f"{label} [{k + 1}]"
-            preds.append(ir.Pred(e, lab, n.span))
+            upper = n.op in ("<", "<=")
+            bound = None
+            if isinstance(y, ir.Const) and not isinstance(x, ir.Const):
+                bound = ir.Bound(la[k], "upper" if upper else "lower", y.value, x,
+                                 _ast_calls(n.left))
+            elif isinstance(x, ir.Const) and not isinstance(y, ir.Const):
+                bound = ir.Bound(lb[k], "lower" if upper else "upper", x.value, y,
+                                 _ast_calls(n.right))
+            preds.append(ir.Pred(e, lab, n.span, bound))
         return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
 
     def _infinite(self, span: Span) -> ErrorV:
@@ -211,9 +221,15 @@ class FormulaElaborator(Context):
                 return self._infinite(n.span)
             label = self.text(n.span)
             preds = []
-            for (x, lo_e), (_, hi_e) in zip(i1, i2):
-                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span))
-                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span))
+            lv = _labels(v, len(i1)) if isinstance(v, Sym) else [label] * len(i1)
+            calls = _ast_calls(n.arg)
+            for k, ((x, lo_e), (_, hi_e)) in enumerate(zip(i1, i2)):
+                b_lo = (ir.Bound(lv[k], "lower", lo_e.value, x, calls)
+                        if isinstance(lo_e, ir.Const) else None)
+                b_hi = (ir.Bound(lv[k], "upper", hi_e.value, x, calls)
+                        if isinstance(hi_e, ir.Const) else None)
+                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span, b_lo))
+                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span, b_hi))
             f: ir.Formula = ir.And(tuple(preds), n.span)
         else:
             reg = self.value(n.region, scope)
@@ -249,6 +265,28 @@ class _Pair:
 
 
 # ---------------------------------------------------------------- shared helpers
+
+
+def _ast_calls(node: object) -> frozenset[str]:
+    """Names of the functions called anywhere in an expression's syntax tree."""
+    out: set[str] = set()
+    stack = [node]
+    while stack:
+        x = stack.pop()
+        if isinstance(x, tuple):
+            stack.extend(x)
+        elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+            if isinstance(x, ast.Call):
+                out.add(x.fn)
+            stack.extend(getattr(x, f.name) for f in dataclasses.fields(x)
+                         if f.name != "span")
+    return frozenset(out)
+
+
+def _labels(v: Sym, n: int) -> list[str]:
+    """Component names of a signal value, one per compared component."""
+    labels = list(v.labels) or [""]
+    return labels if len(labels) == n else [labels[0]] * n
 
 
 def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:

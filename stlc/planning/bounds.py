@@ -11,34 +11,78 @@ from stlc.planning.problem import PlanningProblem
 from stlc.solution import Window
 
 
-def plot_bounds(problem: PlanningProblem) -> dict:
-    out: dict = {}
-    for v in problem.vehicles():
-        out.update(vehicles.model_of(v).plot_bounds(v))
-    for p in ir.predicates(problem.requirement):
-        lab = p.label
-        const = _const_side(p.expr)
-        if const is None:
-            continue
-        if ".speed <=" in lab:
-            out["speed"] = [0.0, const]
-        elif ".rotor_speed in" in lab:
-            lo, hi = out.get("rotor_speed", [None, None])
-            out["rotor_speed"] = [const, hi] if "(lower)" in lab else [lo, const]
-        elif "angdiff" in lab and "<=" in lab and "deg" in lab:
-            out["heading_margin_deg"] = round(float(np.degrees(const)), 6)
-        elif ("norm(" in lab or "dist(" in lab) and ">=" in lab:
-            out["distance_min"] = const
+def _calls(e: ir.Expr) -> set[str]:
+    out, stack = set(), [e]
+    while stack:
+        x = stack.pop()
+        if isinstance(x, ir.Call):
+            out.add(x.fn)
+            stack.extend(x.args)
+        elif isinstance(x, ir.Bin):
+            stack += [x.left, x.right]
+        elif isinstance(x, ir.Neg):
+            stack.append(x.arg)
     return out
 
 
-def _const_side(e: ir.Expr) -> float | None:
-    """``c - x`` or ``x - c`` → c (the bound of a simple predicate)."""
-    if isinstance(e, ir.Bin) and e.op == "-":
-        for side in (e.left, e.right):
-            if isinstance(side, ir.Const):
-                return abs(side.value)
+def bound_kind(b: ir.Bound) -> str | None:
+    """What a predicate's bound limits, for the report's plots: ``speed``, ``rotor_speed``,
+    ``hover_speed`` (horizontal speed below which a vehicle counts as hovering),
+    ``heading_margin`` or ``distance_min`` — read from the bound's signal and expression."""
+    field = b.signal.split(".")[1] if b.signal.count(".") >= 1 else ""
+    if field == "speed" and b.side == "upper":
+        return "speed"
+    if field == "rotor_speed":
+        return "rotor_speed"
+    if field == "horizontal_speed" and b.side == "upper":
+        return "hover_speed"
+    calls = b.calls | _calls(b.expr)
+    if "angdiff" in calls and b.side == "upper":
+        return "heading_margin"
+    if calls & {"dist", "norm"} and b.side == "lower":
+        return "distance_min"
     return None
+
+
+def stated_bounds(formula: ir.Formula) -> dict:
+    """The limits a formula states: ``speed`` and ``rotor_speed`` as [lo, hi],
+    ``heading_margin_deg``, ``distance_min``, ``hover_speed``."""
+    out: dict = {}
+    for p in ir.predicates(formula):
+        if p.bound is None:
+            continue
+        kind, c = bound_kind(p.bound), abs(float(p.bound.value))
+        if kind == "speed":
+            out["speed"] = [0.0, c]
+        elif kind == "rotor_speed":
+            lo, hi = out.get("rotor_speed", [None, None])
+            out["rotor_speed"] = [c, hi] if p.bound.side == "lower" else [lo, c]
+        elif kind == "heading_margin":
+            out["heading_margin_deg"] = round(float(np.degrees(c)), 6)
+        elif kind is not None:
+            out[kind] = c
+    return out
+
+
+def bound_specs(specs: dict[str, ir.Formula]) -> dict[str, list[str]]:
+    """For each bound kind (as in ``stated_bounds``), the named specs that state it."""
+    names = {"heading_margin": "heading_margin_deg"}
+    out: dict[str, list[str]] = {}
+    for name, f in specs.items():
+        kinds = {bound_kind(p.bound) for p in ir.predicates(f) if p.bound is not None}
+        for k in sorted(k for k in kinds if k is not None):
+            out.setdefault(names.get(k, k), []).append(name)
+    return out
+
+
+def plot_bounds(problem: PlanningProblem) -> dict:
+    """The vehicles' own limits and the limits the requirement states."""
+    out: dict = {}
+    for v in problem.vehicles():
+        out.update(vehicles.model_of(v).plot_bounds(v))
+    out.update(stated_bounds(problem.requirement))
+    out.pop("hover_speed", None)
+    return out
 
 
 def spec_windows(problem: PlanningProblem) -> list[Window]:

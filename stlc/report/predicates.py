@@ -12,10 +12,10 @@ changing what they mean; the raw label stays in the view for the tooltip.
 
 from __future__ import annotations
 
-import math
 import re
 
 from stlc import ir
+from stlc.planning.bounds import stated_bounds
 
 #: ``<point> in|not in <region> (<axis> <=|>= lo|hi)``: a face of a box membership
 _FACE = re.compile(r"^(?P<p>.+?) (?P<neg>not in|in) (?P<r>[^\s()\[\]]+) "
@@ -106,67 +106,12 @@ def predicate_line(formula: ir.Formula | None, label: str) -> int:
     return 0
 
 
-def const_side(e: ir.Expr) -> float | None:
-    """``c - x`` or ``x - c`` → c (the bound of a simple predicate)."""
-    if isinstance(e, ir.Bin) and e.op == "-":
-        for side in (e.left, e.right):
-            if isinstance(side, ir.Const):
-                return abs(float(side.value))
-    return None
-
-
-#: bound kinds of ``Solution.bounds`` → how their predicates are labelled
-BOUND_PATTERNS = {
-    "speed": re.compile(r"\.speed <="),
-    "rotor_speed": re.compile(r"\.rotor_speed (not )?in"),
-    "heading_margin_deg": re.compile(r"angdiff"),
-    "distance_min": re.compile(r"(norm|dist)\(.*>="),
-}
-
-
-def stated_bounds(formula: ir.Formula) -> dict:
-    """The bounds a requirement states, in the form of ``Solution.bounds``: ``speed``
-    and ``rotor_speed`` as [lo, hi], ``heading_margin_deg``, ``distance_min`` (for plans
-    whose ``bounds`` lack some of them)."""
-    out: dict = {}
-    for p in ir.predicates(ir.normalize(formula)):
-        lab, c = _strip_not(p.label)[0], const_side(p.expr)
-        if c is None:
-            continue
-        if BOUND_PATTERNS["speed"].search(lab):
-            out["speed"] = [0.0, c]
-        elif BOUND_PATTERNS["rotor_speed"].search(lab):
-            lo, hi = out.get("rotor_speed", [None, None])
-            out["rotor_speed"] = [c, hi] if lab.endswith("(lower)") else [lo, c]
-        elif BOUND_PATTERNS["heading_margin_deg"].search(lab) and "<=" in lab:
-            out["heading_margin_deg"] = round(math.degrees(c), 6)
-        elif BOUND_PATTERNS["distance_min"].search(lab):
-            out["distance_min"] = c
-    return out
-
-
-def bound_specs(specs: dict[str, ir.Formula]) -> dict[str, list[str]]:
-    """For each bound kind, the named specs that state it (from their predicate labels)."""
-    out: dict[str, list[str]] = {}
-    for name, f in specs.items():
-        labels = {_strip_not(p.label)[0] for p in ir.predicates(f)}
-        for kind, pat in BOUND_PATTERNS.items():
-            if any(pat.search(lab) for lab in labels):
-                out.setdefault(kind, []).append(name)
-    return out
-
-
 def hover_speed(formula: ir.Formula | None) -> float | None:
     """The ``horizontal_speed <= c`` of a heading requirement (below it the vehicle counts
     as hovering and its direction of motion is undefined), if the mission states one."""
     if formula is None:
         return None
-    for p in ir.predicates(formula):
-        if ".horizontal_speed <=" in _strip_not(p.label)[0]:
-            c = const_side(p.expr)
-            if c is not None:
-                return c
-    return None
+    return stated_bounds(formula).get("hover_speed")
 
 
 def mentioned(formulas: list[ir.Formula], names: list[str]) -> set[str]:

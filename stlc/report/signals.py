@@ -14,11 +14,12 @@ import numpy as np
 
 from stlc import ir
 from stlc.model import Mission, Program
+from stlc.planning.bounds import bound_specs, stated_bounds
 from stlc.solution import Solution
 from stlc.vehicles import model_of
 
 from .common import channel, fmt, indexed, num, nums, pair, speed, vehicles
-from .predicates import bound_specs, hover_speed, stated_bounds
+from .predicates import hover_speed
 
 #: shading colours of requirement windows, cycled
 WINDOW_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf")
@@ -97,7 +98,7 @@ class _Builder:
         self.vehicles = vehicles(mission, sol)
         self.multi = len(self.vehicles) > 1
         # the plan's bounds, completed by those the requirement states
-        self.bounds = {**stated_bounds(mission.requirement),
+        self.bounds = {**stated_bounds(ir.normalize(mission.requirement)),
                        **sol.bounds}
         self.stated = bound_specs(formulas)
         self.signals = {k: ir.signals(f) for k, f in formulas.items()}
