@@ -42,6 +42,7 @@ from stlc.check.values import (
     to_sym,
 )
 from stlc.diagnostics import Span, did_you_mean
+from stlc.vehicles import model_of
 
 BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None),
                   "g0": (9.81, units.ACCEL)}
@@ -316,7 +317,7 @@ def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
         "horizontal_speed": scal(hspeed, units.SPEED, f"{n}.horizontal_speed"),
         "course": scal(ir.Call("atan2", (vy, vx)), units.ANGLE, f"{n}.course"),
     }
-    if isinstance(v, model.Multirotor):
+    if model_of(v).kind == "multirotor":
         k = len(v.rotors)
         idx = tuple(str(i + 1) for i in range(k))
         out["att"] = vec("att", units.ANGLE)
