@@ -84,84 +84,100 @@ class TeamNLP:
                                (self._col(d, j, 1, 0), 0.0)):
                     self.lbx[c] = self.ubx[c] = val
             for win in self.sched.windows.get(drone.name, []):
+                m = win.k1 - win.k0
                 for j in range(3):
                     c0 = self._col(d, j, 0, win.k0)
-                    for k in range(win.k0, win.k1 + 1):
-                        cv = self._col(d, j, 1, k)
-                        self.lbx[cv] = self.ubx[cv] = 0.0
-                        if k > win.k0:
-                            blocks.append(sp.csr_matrix(([1.0, -1.0], ([0, 0], [c0 + k - win.k0,
-                                                        c0])), shape=(1, self.nw)))
-                            lb.append([0.0])
-                            ub.append([0.0])
+                    cv = self._col(d, j, 1, win.k0)
+                    self.lbx[cv:cv + m + 1] = self.ubx[cv:cv + m + 1] = 0.0
+                    if m > 0:  # p_k − p_k0 = 0 for the other knots of the window
+                        rows = np.repeat(np.arange(m), 2)
+                        cols = np.stack([c0 + 1 + np.arange(m), np.full(m, c0)], 1).ravel()
+                        vals = np.tile([1.0, -1.0], m)
+                        blocks.append(sp.csr_matrix((vals, (rows, cols)), shape=(m, self.nw)))
+                        lb.append(np.zeros(m))
+                        ub.append(np.zeros(m))
                     one = sp.csr_matrix(([1.0], ([0], [c0])), shape=(1, self.nw))
                     blocks += [one - rcol, one + rcol]
                     lb += [[win.box.lo[j]], [-np.inf]]
                     ub += [[np.inf], [win.box.hi[j]]]
         self.A = sp.vstack(blocks).tocsc()
         self.lbg_lin, self.ubg_lin = np.concatenate(lb), np.concatenate(ub)
-        self.g_lin = ca.mtimes(ca.DM(self.A), self.w)
+        self.A_dm = ca.DM(self.A)
         # smoothness regulariser: Σ ∫|a|² dt = Σ h/3 (a0² + a0 a1 + a1²), normalised
-        reg = 0
-        for acc in self.acc_rows:
-            a = ca.mtimes(ca.DM(acc.tocsc()), self.w)
-            a0, a1 = a[:nseg], a[nseg:]
-            reg += ca.sum1(a0 * a0 + a0 * a1 + a1 * a1) * (h / 3)
+        a0 = sp.vstack([acc[:nseg] for acc in self.acc_rows]).tocsc()
+        a1 = sp.vstack([acc[nseg:] for acc in self.acc_rows]).tocsc()
+        self.acc_ends = (ca.DM(a0), ca.DM(a1))
         amax = max(max(dr.acc_max) for dr in sc.drones)
-        self.reg = 1e-3 * reg / (self.D * sc.horizon * amax**2)
+        self.reg_weight = 1e-3 * (h / 3) / (self.D * sc.horizon * amax**2)
+        lam, gam = self.lam, sc.separation
+        p, q, lo, hi = (ca.SX.sym(n, 3) for n in ("p", "q", "lo", "hi"))
+        c, r = ca.SX.sym("c"), ca.SX.sym("r")
+        d = p - q
+        self._sep_fn = ca.Function("sep", [p, q, r], [(ca.dot(d, d) - (gam + r) ** 2) / (2 * gam)])
+        faces = ca.vertcat(p - hi, lo - p)
+        lse = c + ca.log(ca.sum1(ca.exp(lam * (faces - c)))) / lam
+        self._obs_fn = ca.Function("obs", [p, lo, hi, c, r], [lse - math.log(6) / lam - r])
+        vx, vy, vs = ca.SX.sym("vx"), ca.SX.sym("vy"), ca.SX.sym("vs")
+        self._en_fn = ca.Function("en", [vx, vy, vs],
+                                  [(1 - ca.sqrt(vx * vx + vy * vy + 1e-4) / vs) ** 2])
 
     # ------------------------------------------------------------------ nonlinear rows
-    def _positions(self, keys: list[tuple[int, int]]) -> ca.SX:
-        """(len(keys), 3) SX positions of (drone, sample) pairs."""
-        if not keys:
-            return ca.SX(0, 3)
-        ds = np.array([k[0] for k in keys])
-        t = self.times[np.array([k[1] for k in keys])]
-        rows = []
+    def _select(self, ds: np.ndarray, ks: np.ndarray, order: int) -> list[sp.csc_matrix]:
+        """Per axis, the sparse (len, nw) map to drone ds[i]'s derivative at sample ks[i]."""
+        out = []
+        t = self.times[ks]
         for j in range(3):
-            m = sp.csr_matrix((len(keys), self.nw))
+            m = sp.csr_matrix((len(ks), self.nw))
             for d in np.unique(ds):
                 sel = np.flatnonzero(ds == d)
-                part = self._at(int(d), j, t[sel], 0).tocoo()
+                part = self._at(int(d), j, t[sel], order).tocoo()
                 m = m + sp.csr_matrix((part.data, (sel[part.row], part.col)), shape=m.shape)
-            rows.append(ca.mtimes(ca.DM(m.tocsc()), self.w))
-        return ca.horzcat(*rows)
+            out.append(m.tocsc())
+        return out
 
-    def build(self, sep, obs, energy, r_floor, ipopt):
-        sc, r = self.sc, self.w[-1]
-        sep, obs = sorted(sep), sorted(obs)
-        keys = sorted({(i, k) for i, _, k in sep} | {(j, k) for _, j, k in sep}
-                      | {(i, k) for i, _, k in obs})
-        index = {key: n for n, key in enumerate(keys)}
-        P = self._positions(keys)
-        g, lb = [self.g_lin], [self.lbg_lin]
-        ub = [self.ubg_lin]
+    def build(self, x, sep, obs, energy, r_floor, ipopt):
+        """IPOPT solver for the given separation/obstacle rows; all in MX over one vector:
+        sampled positions are constant sparse products, the nonlinear rows are tiny SX
+        functions mapped over them (set-up stays cheap as rows grow)."""
+        sc = self.sc
+        w = ca.MX.sym("w", self.nw)
+        r = w[-1]
+        g, lb, ub = [ca.mtimes(self.A_dm, w)], [self.lbg_lin], [self.ubg_lin]
+
+        def positions(ds, ks):
+            mats = self._select(np.asarray(ds), np.asarray(ks), 0)
+            sym = ca.horzcat(*[ca.mtimes(ca.DM(m), w) for m in mats]).T
+            return sym, np.stack([m @ x for m in mats], axis=0)
+
         if sep:
-            a = P[[index[(i, k)] for i, _, k in sep], :]
-            b = P[[index[(j, k)] for _, j, k in sep], :]
-            diff = a - b
-            gam = sc.separation
-            g.append((ca.sum2(diff * diff) - (gam + r) ** 2) / (2 * gam))
-            lb.append(np.zeros(len(sep)))
-            ub.append(np.full(len(sep), np.inf))
-        lam = self.lam
-        for i, q, k in obs:
-            box = sc.obstacles[q]
-            p = P[index[(i, k)], :].T
-            faces = ca.vertcat(p - ca.DM(box.hi), ca.DM(box.lo) - p)
-            g.append(ca.log(ca.sum1(ca.exp(lam * faces))) / lam - math.log(6) / lam - r)
-            lb.append([0.0])
-            ub.append([np.inf])
-        f = -r + self.reg
+            items = sorted(sep)
+            pa, _ = positions([i for i, _, _ in items], [k for *_, k in items])
+            pb, _ = positions([j for _, j, _ in items], [k for *_, k in items])
+            g.append(self._sep_fn.map(len(items))(pa, pb, r).T)
+            lb.append(np.zeros(len(items)))
+            ub.append(np.full(len(items), np.inf))
+        if obs:
+            items = sorted(obs)
+            p, p0 = positions([i for i, _, _ in items], [k for *_, k in items])
+            lo = np.array([sc.obstacles[q].lo for _, q, _ in items]).T
+            hi = np.array([sc.obstacles[q].hi for _, q, _ in items]).T
+            # sound smooth max LSE_λ(faces) − ln 6/λ ≤ max(faces), shifted by the current
+            # max of each row so that the exponentials stay in range
+            shift = np.max(np.vstack([p0 - hi, lo - p0]), axis=0)[None, :]
+            g.append(self._obs_fn.map(len(items))(p, lo, hi, shift, r).T)
+            lb.append(np.zeros(len(items)))
+            ub.append(np.full(len(items), np.inf))
+        a0, a1 = (ca.mtimes(m, w) for m in self.acc_ends)
+        f = -r + self.reg_weight * (ca.dot(a0, a0) + ca.dot(a0, a1) + ca.dot(a1, a1))
         if energy is not None:
-            f += energy["eta"] * self._energy(energy["v_star"])
+            f += energy["eta"] * self._energy(w, energy["v_star"])
         lbx, ubx = self.lbx.copy(), self.ubx.copy()
         if r_floor is not None:
             lbx[-1] = r_floor
         gg = ca.vertcat(*g)
         opts = dict(_IPOPT)
         opts.update(ipopt or {})
-        solver = ca.nlpsol("refine", "ipopt", {"x": self.w, "f": f, "g": gg}, opts)
+        solver = ca.nlpsol("refine", "ipopt", {"x": w, "f": f, "g": gg}, opts)
         return (solver, np.concatenate(lb), np.concatenate(ub), lbx, ubx, int(gg.numel()))
 
     def transit_mask(self, name: str) -> np.ndarray:
@@ -172,16 +188,16 @@ class TeamNLP:
             m &= ~((self.times >= knots[win.k0] - 1e-9) & (self.times <= knots[win.k1] + 1e-9))
         return m
 
-    def _energy(self, v_star: dict[str, float]) -> ca.SX:
+    def _energy(self, w: ca.MX, v_star: dict[str, float]) -> ca.MX:
+        """Σ over the dense transit samples of (1 − v_for/v*)², v_for = hypot(v_x, v_y)."""
         total = 0
         for d, name in enumerate(self.names):
-            t = self.times[self.transit_mask(name)]
-            if len(t) == 0:
+            ks = np.flatnonzero(self.transit_mask(name))
+            if len(ks) == 0:
                 continue
-            vx = ca.mtimes(ca.DM(self._at(d, 0, t, 1).tocsc()), self.w)
-            vy = ca.mtimes(ca.DM(self._at(d, 1, t, 1).tocsc()), self.w)
-            vf = ca.sqrt(vx * vx + vy * vy + 1e-4)
-            total += ca.sum1((1 - vf / v_star[name]) ** 2)
+            mx, my, _ = self._select(np.full(len(ks), d), ks, 1)
+            vx, vy = ca.mtimes(ca.DM(mx), w), ca.mtimes(ca.DM(my), w)
+            total += ca.sum2(self._en_fn.map(len(ks))(vx.T, vy.T, v_star[name]))
         return total
 
     def forward_cost(self, plan: TeamPlan, v_star: float | None) -> float | None:

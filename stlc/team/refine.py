@@ -132,7 +132,7 @@ def refine(scenario: TeamScenario, seed: TeamPlan, *, lam: float = 10.0, kappa: 
     def solve(energy: dict | None, r_floor: float | None):
         nonlocal x, status
         t0 = time.process_time()
-        solver, lbg, ubg, lbx, ubx, ncon = nlp.build(sep, obs, energy, r_floor, ipopt)
+        solver, lbg, ubg, lbx, ubx, ncon = nlp.build(x, sep, obs, energy, r_floor, ipopt)
         t1 = time.process_time()
         res = solver(x0=x, lbg=lbg, ubg=ubg, lbx=lbx, ubx=ubx)
         t2 = time.process_time()
