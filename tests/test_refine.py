@@ -8,7 +8,6 @@ predicate margins, i.e. the STL robustness of □(…) for those predicates).
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -16,8 +15,12 @@ from hypothesis import strategies as st
 from refine_cases import cube, head_on, straight_seed
 
 from stlc.team import Box, Drone, TeamScenario
-from stlc.team.energy import (feasible_forward_speed, forward_cost, forward_speed,
-                              optimal_forward_speed)
+from stlc.team.energy import (
+    feasible_forward_speed,
+    forward_cost,
+    forward_speed,
+    optimal_forward_speed,
+)
 from stlc.team.refine import per_drone_csv, refine
 from stlc.team.waypoints import hermite_map, knot_times
 

@@ -63,7 +63,8 @@ class TeamNLP:
         self.acc_rows = []
         for d, drone in enumerate(sc.drones):
             for j in range(3):
-                vbar, abar = drone.vel_max[j], drone.acc_max[j]
+                # 1e-6 inside the bounds: IPOPT may relax bounds by ~1e-8 (bound_relax_factor)
+                vbar, abar = drone.vel_max[j] - 1e-6, drone.acc_max[j] - 1e-6
                 mv, mp = overshoot(abar, h, h / per)
                 blocks.append(self._at(d, j, tchk, 1))
                 lb.append(np.full(len(tchk), -(vbar - mv)))

@@ -39,7 +39,7 @@ import time
 
 import numpy as np
 
-from stlc.team import Box, TeamPlan, TeamScenario, Visit
+from stlc.team import Box, TeamPlan, TeamScenario
 from stlc.team.energy import feasible_forward_speed
 from stlc.team.nlp import TeamNLP
 from stlc.team.retime import initial_knots, make_schedule
