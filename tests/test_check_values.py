@@ -121,6 +121,7 @@ NON_FINITE = [
     (UAV + "scenario {\n  human op { pos = (0, 0, 0) m }\n"
      "  op.pos ~ normal((0, 0, 1e306), diag(1, 1, 1)) km\n}\n",
      "normal((0, 0, 1e306), diag(1, 1, 1)) km"),
+    ("signal x\nspec s = x in [(inf - inf), 1]\nspec t = not s\n", "inf - inf"),
     (UAV + "const c = 0 * inf\n", "0 * inf"),
     (UAV + "const c = inf / inf\n", "inf / inf"),
     (UAV + "const c = angdiff(inf, 0)\n", "angdiff(inf, 0)"),
