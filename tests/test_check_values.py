@@ -121,6 +121,7 @@ NON_FINITE = [
     (UAV + "scenario {\n  human op { pos = (0, 0, 0) m }\n"
      "  op.pos ~ normal((0, 0, 1e306), diag(1, 1, 1)) km\n}\n",
      "normal((0, 0, 1e306), diag(1, 1, 1)) km"),
+    ("signal x\nspec s = x in [(inf - inf), 1]\nspec t = not s\n", "inf - inf"),
     (UAV + "const c = 0 * inf\n", "0 * inf"),
     (UAV + "const c = inf / inf\n", "inf / inf"),
     (UAV + "const c = angdiff(inf, 0)\n", "angdiff(inf, 0)"),
@@ -279,3 +280,29 @@ def test_a_bad_dwell_time_is_reported(field, value, code, where):
     diags = diagnose(src)
     assert [d.code for d in diags] == [code], diags
     assert located(src, diags[0]) == where
+
+
+# ---------------------------------------------------------------- fuzz findings (branch rel)
+
+
+@pytest.mark.parametrize("sep", ["\f", "\v", "\x1c", "\x85", "\u2028", "\u2029"])
+def test_predicate_labels_count_lines_like_the_parser(sep):
+    """``str.splitlines`` also breaks at these characters; a comment holding one must not
+    shift the source text that labels later predicates."""
+    src = f"signal x\n# a {sep} b\nspec s = abs(x) > 0\nspec t = x <= 2\n"
+    p = check(parse(src, "t.stl"))
+    assert p.specs["s"].label == "abs(x) > 0"
+    assert p.specs["t"].label == "x <= 2"
+
+
+def test_name_hints_read_every_scope_without_copying():
+    from stlc.check.context import Scope
+
+    outer = Scope({"alpha": None})  # type: ignore[dict-item]
+    inner = outer.child({"beta": None})  # type: ignore[dict-item]
+    names = inner.all_names(("pi",))
+    outer.names["gamma"] = None  # type: ignore[assignment]  # a view: later names show
+    assert sorted(names) == ["alpha", "beta", "gamma", "pi"]
+    assert "gamma" in names and "pi" in names and "delta" not in names
+    diags = diagnose(UAV + "spec a = uav.pos.z >= alpah\nconst alpha = 1\n")
+    assert [d.code for d in diags] == ["STL101"] and "`alpha`" in diags[0].help

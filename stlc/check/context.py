@@ -12,8 +12,9 @@ each other, so there is no import cycle; ``stlc.check.program`` puts them togeth
 from __future__ import annotations
 
 import math
+import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -48,13 +49,15 @@ class Scope:
             s = s.parent
         return None
 
-    def all_names(self) -> set[str]:
-        out: set[str] = set()
+    def all_names(self, *extra: Iterable[str]) -> Names:
+        """Every bound name (and ``extra``), as a view: O(depth) to make, so that a file
+        full of unknown names stays linear (each "did you mean" reads it at most once)."""
+        views: list[Iterable[str]] = []
         s: Scope | None = self
         while s is not None:
-            out |= set(s.names)
+            views.append(s.names.keys())
             s = s.parent
-        return out
+        return Names((*views, *extra))
 
     def hook(self, name: str, span: Span) -> Value | None:
         """Ask the innermost ``lookup_hook`` about a name that is not bound."""
@@ -69,6 +72,20 @@ class Scope:
         return Scope(dict(names), self)
 
 
+@dataclass(frozen=True)
+class Names:
+    """A re-iterable union of name collections (duplicates possible; for hints only)."""
+
+    parts: tuple[Iterable[str], ...]
+
+    def __iter__(self) -> Iterator[str]:
+        for p in self.parts:
+            yield from p
+
+    def __contains__(self, name: object) -> bool:
+        return any(name in p for p in self.parts)  # type: ignore[operator]
+
+
 class Context(ABC):
     """State of one checker pass and the helpers shared by the checker's modules."""
 
@@ -78,7 +95,7 @@ class Context(ABC):
     def __init__(self, tree: ast.File):
         self.tree = tree
         self.d = Collector()
-        self.lines = tree.source.splitlines()
+        self.lines = source_lines(tree.source)
         self.file = tree.path
         #: the step of the mission being checked (alignment of time bounds), or None
         self.step: float | None = None
@@ -338,6 +355,13 @@ class Context(ABC):
 
 
 # ---------------------------------------------------------------- small shared functions
+
+
+def source_lines(text: str) -> list[str]:
+    """The lines of a source file as the parser counts them: split at ``\n``, ``\r\n`` and
+    ``\r`` only (``str.splitlines`` also splits at form feeds and U+2028, which would
+    shift every later line)."""
+    return re.split(r"\r\n|\r|\n", text)
 
 
 def example(d: units.Dim | None) -> str:

@@ -165,7 +165,7 @@ class ExpressionElaborator(Context):
             x, dim = BUILTIN_CONSTS[head]
             v = Num(np.array(x), dim)
         if v is None:
-            cands = scope.all_names() | set(BUILTIN_CONSTS)
+            cands = scope.all_names(BUILTIN_CONSTS)
             return self.err("STL101", f"unknown name `{head}`", _head_span(n),
                             did_you_mean(head, cands))
         for i, part in enumerate(n.parts[1:], start=1):
