@@ -122,8 +122,9 @@ def _mission_time(mission: model.Mission, field: str, fallback: float | None) ->
     if value is None:
         value = fallback
     if value is None:
-        raise ScenarioError(f"mission {mission.name} does not give the {field.replace('_', ' ')}"
-                            f" (needed for team planning)", reason="scenario",
+        what = "installation" if field == "install_time" else "refilling"
+        raise ScenarioError(f"mission {mission.name} does not give the {what} time "
+                            f"(`{field}`), needed for team planning", reason="scenario",
                             subject=mission.name)
     if not value > 0:
         raise ScenarioError(f"mission {mission.name}: {field} must be positive, got {value}",
