@@ -3,7 +3,8 @@
 The brute force enumerates, for every drone and subset of targets, every visiting order,
 every choice of refill (no station or one of the stations) between consecutive targets
 and every home station, keeps the runs within the capacity, and takes the best
-combination over all assignments of targets to drones.  Leg times are recomputed here
+combination over all assignments of targets to drones and of home stations (distinct when
+there are at least as many stations as drones).  Leg times are recomputed here
 from the closed-form trapezoid / triangle formulas (rounded up to whole steps).
 """
 
@@ -41,18 +42,18 @@ def brute(sc: TeamScenario) -> float:
     scn = [np.add(s.lo, s.hi) / 2 for s in sc.stations]
     limit = sc.horizon - rs
     nt = len(tc)
-    best: list[dict[frozenset, float]] = []
+    best: list[dict[tuple[frozenset, int], float]] = []  # (targets, home) -> best time
     for dr in sc.drones:
         v, a = dr.vel_max[0], dr.acc_max[0]
-        table: dict[frozenset, float] = {}
+        table: dict[tuple[frozenset, int], float] = {}
         for size in range(nt + 1):
             for subset in itertools.combinations(range(nt), size):
-                top = math.inf
-                if size and dr.capacity == 0:
-                    table[frozenset(subset)] = top
-                    continue
+                top = [math.inf] * len(scn)
+                key = frozenset(subset)
                 if not size:
-                    table[frozenset()] = min(leg(dr.start, s, v, a) for s in scn)
+                    top = [leg(dr.start, s, v, a) for s in scn]
+                if not size or dr.capacity == 0:
+                    table.update({(key, h): top[h] for h in range(len(scn))})
                     continue
                 for order in itertools.permutations(subset):
                     for gaps in itertools.product([None, *range(len(scn))], repeat=size - 1):
@@ -68,16 +69,20 @@ def brute(sc: TeamScenario) -> float:
                                 time += leg(p, scn[g], v, a) + rs + leg(scn[g], q, v, a) + ins
                             ok = ok and run <= dr.capacity
                         if ok:
-                            home = min(leg(tc[order[-1]], s, v, a) for s in scn)
-                            top = min(top, time + home)
-                table[frozenset(subset)] = top
+                            for h, s in enumerate(scn):
+                                top[h] = min(top[h], time + leg(tc[order[-1]], s, v, a))
+                table.update({(key, h): top[h] for h in range(len(scn))})
         best.append(table)
+    nd = len(sc.drones)
     out = math.inf
-    for owner in itertools.product(range(len(sc.drones)), repeat=nt):
-        times = [best[d][frozenset(j for j in range(nt) if owner[j] == d)]
-                 for d in range(len(sc.drones))]
-        if all(t <= limit + 1e-9 for t in times):
-            out = min(out, sum(times))
+    for owner in itertools.product(range(nd), repeat=nt):
+        sets = [frozenset(j for j in range(nt) if owner[j] == d) for d in range(nd)]
+        for homes in itertools.product(range(len(scn)), repeat=nd):
+            if len(scn) >= nd and len(set(homes)) < nd:
+                continue  # distinct home stations when there are enough of them
+            times = [best[d][(sets[d], homes[d])] for d in range(nd)]
+            if all(t <= limit + 1e-9 for t in times):
+                out = min(out, sum(times))
     return out
 
 
@@ -99,6 +104,9 @@ def check_routes(sc: TeamScenario, routes: dict[str, list[str]]) -> None:
     names = {t.name for t in sc.targets}
     served = [r for rt in routes.values() for r in rt if r in names]
     assert sorted(served) == sorted(names)
+    homes = [routes[dr.name][-1] for dr in sc.drones]
+    if len(sc.stations) >= len(sc.drones):
+        assert len(set(homes)) == len(homes)
     for dr in sc.drones:
         rt = routes[dr.name]
         assert rt and rt[-1] in {s.name for s in sc.stations}

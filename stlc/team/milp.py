@@ -10,8 +10,11 @@ directly, allows a station to be used several times, and the same cuts apply.
 
 Constraints.  Every target is entered exactly once by the team (7b); a drone leaves every
 target it enters (7c); each drone leaves its depot once (7d); each drone ends at one
-station (per station: entries ≥ exits; over all stations: entries − exits = 1); each
-drone's route time fits the horizon (below).  Eq. (7e) is added lazily: after each solve
+station (per station: entries ≥ exits; over all stations: entries − exits = 1); when
+there are at least as many stations as drones, no two drones share a home station (two
+drones parked in one 2 m station cannot keep Γ_dis = 3 m apart); each drone's route time
+fits the horizon (below).  The initial cut pool holds the 2-target sub-tour cuts
+``Σ_d (x_dij + x_dji) ≤ 1``.  Eq. (7e) is added lazily: after each solve
 the incumbent is decomposed per drone, and for every violation a cut is added and the MILP
 re-solved, until none is violated:
 
@@ -19,9 +22,12 @@ re-solved, until none is violated:
   closed tour through a station the drone never reaches), targets ``S`` and stations
   ``R_C``:  for each ``j ∈ S``, arcs of ``d`` entering ``S ∪ R_C`` ≥ arcs of ``d`` entering
   ``j``; for a target-only cycle also ``Σ_d Σ_{i,j∈S} x_dij ≤ |S| − 1`` (DFJ);
-* a segment (depot or station → targets ``S`` → station) longer than the capacity
-  ``c̄_d``: ``Σ_{i≠j∈S} x_dij ≤ |S| − ⌈|S|/c̄_d⌉`` (each run of ``d`` between stations
-  holds ≤ ``c̄_d`` targets, so ``d`` uses at most that many arcs inside ``S``).
+* a segment (depot or station → targets → station) longer than the capacity ``c̄_d``:
+  for every window ``W`` of it longer than the capacity and every drone ``e`` with
+  ``c̄_e < |W|``: ``Σ_{i≠j∈W} x_eij ≤ |W| − ⌈|W|/c̄_e⌉`` (each run between stations holds
+  ≤ ``c̄_e`` targets), the fractional form ``Σ_{i≠j∈W} x_eij ≤ (1 − 1/c̄_e)·(targets of e
+  in W)``, and team-wide ``Σ_e Σ_{i≠j∈W} x_eij ≤ |W| − ⌈|W|/max_e c̄_e⌉``; all are valid
+  for every feasible route, so the solver cannot move the violation to another drone.
 
 Costs are times, in seconds, exactly those of the seed trajectory (``stlc.team.seed``):
 travel = the rest-to-rest primitive's minimum duration between the points (per-axis
@@ -31,10 +37,11 @@ a target (install) and on arcs out of a station (refill).  Horizon: each drone's
 time plus a final refilling dwell at home must be ≤ ``T_N`` (conservative: the refill
 requirement then holds whatever the drone carries when it gets home).
 
-Objective: ``Σ_d time_d + w · max_d time_d`` with ``w = makespan_weight`` (default 1).  The
-paper minimises the total alone; the mission has a horizon and the NLP refinement needs
-slack, so we also penalise the longest route, which spreads the work over the team (with
-``w = 0`` one drone may do everything while the others idle).
+Objective: ``Σ_d time_d`` — the paper's total (eq. 7a), in time rather than distance so
+that installs and refills count — plus ``w · max_d time_d`` if ``makespan_weight = w > 0``.
+The default is ``w = 0``: the horizon is already a hard per-drone constraint, and the max
+term weakens the LP bound so much that even the 2×7 mission did not solve in 5 minutes.
+With ``w = 0`` a drone whose help does not pay for its travel goes straight home.
 """
 
 from __future__ import annotations
@@ -187,6 +194,15 @@ class _Model:
         for k in self.inner_arcs:
             pair.setdefault(frozenset((arcs[k].tail[1], arcs[k].head[1])), {})[k] = 1.0
         ub += [(row, 1.0) for row in pair.values()]
+        if 0 < nd <= ns:  # one drone per home station (entries - exits = 1 there)
+            for s in range(ns):
+                row = {}
+                for k, a in enumerate(arcs):
+                    if a.head == ("S", s):
+                        row[k] = row.get(k, 0.0) + 1.0
+                    elif a.tail == ("S", s):
+                        row[k] = row.get(k, 0.0) - 1.0
+                ub.append((row, 1.0))
         self.seen: set[frozenset] = set()
         self.n, self.eq, self.ub = n, eq, ub
         self.cost = np.array([a.cost for a in arcs])
