@@ -61,6 +61,7 @@ CODES: dict[str, str] = {
     # solve outcomes
     "STL501": "no satisfying plan found",
     "STL502": "the solver failed",
+    "STL503": "no task assignment exists (capacity, stations, reach or horizon)",
     # input files (traces, trajectories)
     "STL601": "cannot read file",
     "STL602": "malformed trace",

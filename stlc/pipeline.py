@@ -91,10 +91,39 @@ def as_float(x) -> float:
 
 
 def backend_chain(problem, quiet: bool = True) -> list:
-    """The backends that plan ``problem``, in order (seed first)."""
+    """The backends that plan ``problem``, in order (seed first): a team mission (its
+    requirement reads a payload) is seeded by the task-assignment MILP and refined on
+    waypoints; any other by a kinematic path and refined by the full dynamics NLP."""
+    from stlc.backends.team_backend import is_team_mission
+
+    if is_team_mission(problem):
+        from stlc.backends.team_backend import MilpSeed, TeamRefine
+
+        return [MilpSeed(), TeamRefine()]
     from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
 
     return [KinematicGuess(), CasadiNlp(quiet=quiet)]
+
+
+def _team_comparisons(problem, sols: list, quiet: bool) -> None:
+    """A team plan is shown beside its seed ("MILP only", paper B Fig. 8) and, for each
+    ``compare`` variant without the forward-speed term, the standard plan (Fig. 11)."""
+    from stlc.backends.base import run_chain
+    from stlc.backends.team_backend import TeamRefine
+    from stlc.solution import Comparison
+
+    seed, final = sols[0], sols[-1]
+    final.comparisons.append(Comparison("MILP only", dict(seed.channels)))
+    final.timing.update({k: v for k, v in seed.timing.items() if k in ("milp_s", "seed_s")})
+    final.solver["seed"] = dict(seed.solver)
+    for name, variant in problem.mission.options.get("compare", []):
+        if variant is None or variant.forward_weight > 0 or problem.objective.forward_weight == 0:
+            continue
+        std, _ = run_chain(problem.with_seed(seed), [TeamRefine(eta=0.0)])
+        final.comparisons.append(Comparison(name, dict(std.channels)))
+        if not quiet:
+            print(f"  compare {name}: {std.solver.get('iterations')} iterations",
+                  file=sys.stderr)
 
 
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
@@ -105,7 +134,10 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     from stlc.planning.verify import verify
 
     problem = from_mission(program, mission, step=step, horizon=horizon)
-    sol, _ = run_chain(problem, backend_chain(problem, quiet))
+    chain = backend_chain(problem, quiet)
+    sol, sols = run_chain(problem, chain)
+    if len(sols) > 1 and sols[0].routes:
+        _team_comparisons(problem, sols, quiet)
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0

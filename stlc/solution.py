@@ -95,6 +95,12 @@ class Solution:
     risk_results: list | None = None  # per-realisation samples (in memory, for the report)
     #: located findings about the plan (e.g. STL501 at the failing spec), shown in the report
     diagnostics: list = field(default_factory=list)
+    #: team missions: each drone's ordered targets and stations (from the assignment), the
+    #: planned dwells (``stlc.team.Visit``) and the payload events that verification
+    #: recomputed from the positions (``stlc.team.PayloadEvent``)
+    routes: dict[str, list[str]] = field(default_factory=dict)
+    visits: list = field(default_factory=list)
+    events: list = field(default_factory=list)
 
     def to_json_dict(self) -> dict:
         num = _num
@@ -114,6 +120,8 @@ class Solution:
             "problem_size": self.problem_size,
             "notes": self.notes,
             "comparisons": [c.to_json_dict() for c in self.comparisons],
+            **({"team": {"routes": self.routes,
+                         "events": [_event(e) for e in self.events]}} if self.routes else {}),
             "peak": {"speed": _peak(self.channels, ".speed"),
                      "rotor_speed": _peak(self.channels, ".rotor_speed.")},
         }
@@ -129,6 +137,11 @@ class Solution:
         for k, t in enumerate(self.times):
             w.writerow([f"{t:.6g}", *(f"{self.channels[c][k]:.9g}" for c in names)])
         return buf.getvalue()
+
+
+def _event(e) -> dict:
+    return {"drone": e.drone, "kind": e.kind, "region": e.region,
+            "start": round(float(e.start), 6), "end": round(float(e.end), 6)}
 
 
 def _num(x) -> float | None:

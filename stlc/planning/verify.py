@@ -10,7 +10,9 @@ and the plan obeys the dynamics.
 
 from __future__ import annotations
 
-from stlc import monitor, smooth, vehicles
+import numpy as np
+
+from stlc import ir, monitor, smooth, vehicles
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
 from stlc.solution import Solution, SpecResult, Verdict
@@ -18,14 +20,26 @@ from stlc.solution import Solution, SpecResult, Verdict
 KAPPA_TOL = 1e-5  # IPOPT meets ρ̃ ≥ κ to its constraint tolerance
 
 
-def recompute_derived(problem: PlanningProblem, channels: dict) -> dict:
-    """The plan's channels with every derived signal recomputed from its states."""
-    ch = dict(channels)
+def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, list]:
+    """The plan's channels with every derived signal recomputed from its states, and the
+    payload events (team missions: the payload follows from the positions alone)."""
+    ch = {k: v for k, v in channels.items() if not k.endswith(".payload")}
     for v in problem.vehicles():
         vm = vehicles.model_of(v)
         if all(c in ch for c in vm.state_channels(v)):
             ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
-    return ch
+    events: list = []
+    if any(s.endswith(".payload") for s in ir.signals(problem.requirement)):
+        from stlc.team.payload import payload_team
+        from stlc.team.seed import scenario_from_program
+
+        sc = scenario_from_program(problem.program, problem.mission)
+        pos = {d: np.stack([ch[f"{d}.pos.{a}"] for a in "xyz"], axis=1)
+               for d in problem.team}
+        payload, events = payload_team(problem.grid.times(), pos, sc)
+        for d, c in payload.items():
+            ch[f"{d}.payload"] = np.asarray(c, dtype=float)
+    return ch, events
 
 
 def verify(problem: PlanningProblem, sol: Solution) -> Solution:
@@ -34,7 +48,7 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     params = problem.params
     lam = float(sol.smoothing.get("lambda_final", problem.smoothing.lam))
     method = problem.smoothing.method
-    ch = recompute_derived(problem, sol.channels)
+    ch, sol.events = recompute_derived(problem, sol.channels)
     sol.channels = ch
     exact = float(monitor.robustness(problem.requirement, dt, ch, params))
     sol.robustness_exact = exact
@@ -53,7 +67,7 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
         sol.notes.append(f"smooth robustness {sol.robustness_smooth:.6f} is below the "
                          f"threshold κ = {problem.threshold:g}")
     for c in sol.comparisons:
-        c.channels = recompute_derived(problem, c.channels)
+        c.channels, _ = recompute_derived(problem, c.channels)
         c.robustness_exact = float(monitor.robustness(problem.requirement, dt, c.channels,
                                                       params))
         c.specs = {name: float(monitor.robustness(s.normal, dt, c.channels, params))

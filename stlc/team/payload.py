@@ -9,40 +9,44 @@ determined by the sampled trajectory under the following rule (paper B, eq. 2, 3
 * Inside.  Drone ``d`` is inside region ``R`` at sample ``k`` when its sampled position
   lies in the closed box: ``lo ≤ p_d(t_k) ≤ hi`` on every axis (no tolerance).
 * Start.  ``c_d[0] = capacity``.  ``c_d[k]`` is the number on board at sample ``k``.
-* Dwell.  A dwell of duration ``T`` (``n = n_ins`` or ``n_rs`` samples) is ``n + 1``
-  consecutive samples ``k−n, …, k`` inside one region; the event completes at sample ``k``
-  and the payload takes its new value from the next sample: ``c_d[k+1]``.  (This is the
-  paper's "next after T" ``○_T``: while the drone installs its last diverter the payload
-  is still 1, so ``always[0, T_ins] (payload > 0.5 and pos in q)`` holds over the dwell.)
-* Install.  At sample ``k``, drone ``d`` installs target ``q`` when it has been inside ``q``
-  for the last ``n_ins + 1`` samples, ``c_d[k] > 0``, and ``q`` is not yet installed.
-  Then ``q`` is installed (for the whole team) and ``c_d[k+1] = c_d[k] − 1``.
-* Refill.  At sample ``k``, drone ``d`` refills at station ``s`` when it has been inside
-  ``s`` for the last ``n_rs + 1`` samples and ``c_d[k] < capacity``.  Then
-  ``c_d[k+1] = capacity``.
+* Stay.  A stay of drone ``d`` in region ``R`` is a maximal run of consecutive samples
+  ``j, …, k`` inside ``R`` (it ends at ``k`` when the drone is outside ``R`` at ``k+1`` or
+  ``k = N``).  A stay *counts* for a dwell of duration ``T`` (``n = n_ins`` or ``n_rs``
+  samples) when it holds at least ``n + 1`` samples, i.e. lasts ``≥ T``.  The event happens
+  when the stay ends, at sample ``k``, and the payload takes its new value from the next
+  sample: ``c_d[k+1]``.  (So the payload on board is constant over the whole stay: while a
+  drone installs, ``payload > 0.5 and pos in q`` holds over every window of ``T_ins``
+  inside its stay — paper B's ``□[0,T_ins](c_d > 0 ∧ p ∈ q)`` — and the planner can hover
+  deep inside the region instead of timing the install from the moment it crosses a face.)
+* Install.  When drone ``d``'s stay in target ``q`` ends at sample ``k``, counts for
+  ``T_ins``, ``c_d[k] > 0`` and ``q`` is not yet installed, ``q`` is installed (for the
+  whole team) and ``c_d[k+1] = c_d[k] − 1``.
+* Refill.  When drone ``d``'s stay in station ``s`` ends at sample ``k``, counts for
+  ``T_rs`` and ``c_d[k] < capacity``: ``c_d[k+1] = capacity``.
 * Otherwise ``c_d[k+1] = c_d[k]``.
-* One dwell, one event.  After an event of drone ``d`` at sample ``k``, only samples
-  ``> k`` count towards ``d``'s next event (its dwell counters restart).  At most one event
-  per drone and sample; samples are processed in time order, and within a sample drones in
-  scenario order, each drone checking targets (scenario order) before stations.
+* One stay, one event.  Only samples after a drone's last event count towards its next
+  stay (in overlapping regions).  At most one event per drone and sample; samples are
+  processed in time order, and within a sample drones in scenario order, each drone
+  checking targets (scenario order) before stations.
 
 Consequences (corner cases, each tested on hand-made trajectories):
 
 * a second visit to an installed target does nothing; neither does a dwell in a station
   with a full payload;
-* dwelling twice as long installs once (at sample ``k0 + n_ins``);
+* dwelling twice as long installs once (when the stay ends);
 * a drone that enters a target empty installs nothing however long it stays, and the
   target stays open for the others;
-* two drones in the same target: the first to complete the dwell installs it; if both
-  complete at the same sample, the one listed first in the scenario does; the other keeps
-  its payload;
-* a dwell whose ``n + 1`` samples do not all fit before the horizon (sample ``N``) is no
-  event; one completing exactly at ``N`` is listed, its payload change falls after the plan;
+* two drones in the same target: the first whose counting stay ends installs it; if both
+  end at the same sample, the one listed first in the scenario does; the other keeps its
+  payload;
+* a stay still under way at the horizon ends there: it is an event if it counts (its
+  payload change falls after the plan), none if it is shorter than ``T``;
 * leaving and re-entering restarts the count: partial dwells do not add up;
 * hence ``0 ≤ c_d[k] ≤ capacity`` always, and a refill happens only in a station, after
   the refilling time.
 
-Events are reported as ``PayloadEvent(drone, kind, region, start=t_{k−n}, end=t_k)``.
+Events are reported as ``PayloadEvent(drone, kind, region, start=t_j, end=t_k)`` (the
+counting stay's first and last samples).
 """
 
 from __future__ import annotations
@@ -89,6 +93,7 @@ def payload_team(
 
     # runs[d][r] without restarts; restarts are applied through last_event below
     runs: dict[str, list[np.ndarray]] = {}
+    ends: dict[str, list[np.ndarray]] = {}  # a stay in the region ends at this sample
     active: dict[str, np.ndarray] = {}  # samples where the drone is inside some region
     for d in drones:
         p = np.asarray(pos[d.name], dtype=float)
@@ -96,6 +101,7 @@ def payload_team(
             raise ValueError(f"positions of {d.name} must have shape ({n}, 3), got {p.shape}")
         flags = [inside(p, box) for _, box, _ in regions]
         runs[d.name] = [_runs(f) for f in flags]
+        ends[d.name] = [f & ~np.append(f[1:], False) for f in flags]
         any_in = np.zeros(n, dtype=bool)
         for f in flags:
             any_in |= f
@@ -113,8 +119,10 @@ def payload_team(
             if not active[d.name][k]:
                 continue
             c = current[d.name]
-            for (kind, box, need), run in zip(regions, runs[d.name], strict=True):
-                if min(int(run[k]), k - last_event[d.name]) < need + 1:
+            for (kind, box, need), run, end in zip(regions, runs[d.name], ends[d.name],
+                                                   strict=True):
+                stay = min(int(run[k]), k - last_event[d.name])
+                if not end[k] or stay < need + 1:
                     continue
                 if kind == "install" and (c <= 0 or box.name in installed):
                     continue
@@ -127,7 +135,8 @@ def payload_team(
                     current[d.name] = d.capacity
                 last_event[d.name] = k
                 events.append(
-                    PayloadEvent(d.name, kind, box.name, float(times[k - need]), float(times[k]))
+                    PayloadEvent(d.name, kind, box.name, float(times[k - stay + 1]),
+                                 float(times[k]))
                 )
                 break
     return payload, events

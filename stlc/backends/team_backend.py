@@ -1,0 +1,174 @@
+"""Team backends (paper B): the task-assignment seed and the waypoint refinement.
+
+* ``MilpSeed`` — the capacitated multi-depot routing MILP (cvxpy + HiGHS, lazy sub-tour and
+  capacity cuts, ``stlc.team.milp``) decides who installs which target in which order and
+  where each drone refills and ends; rest-to-rest motion primitives with the dwells
+  (``stlc.team.seed``) turn the routes into a dynamically feasible trajectory sampled at
+  the mission step.  This is paper B's "MILP only" plan.
+* ``TeamRefine`` — keeps the assignment and order, and maximises the margin of the safety,
+  separation and dwell predicates over knot positions/velocities with cubic Hermite
+  segments sampled densely (``stlc.team.refine``), with the forward-speed term of eq. (9)
+  when the objective has one.
+
+Both return channels ``<d>.pos.*``, ``<d>.vel.*``, ``<d>.acc.*`` on the mission's dense grid
+and the planned routes and dwells; the payload is *not* returned — verification recomputes
+it from the positions (``stlc.team.payload``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from stlc import ir
+from stlc.backends.base import Backend, Capabilities, SolverStatus
+from stlc.diagnostics import Diagnostic, StlcError
+from stlc.planning.bounds import stated_bounds
+from stlc.planning.problem import PlanningProblem
+from stlc.solution import Solution, Verdict
+
+_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
+                    ir.Until, ir.Release, ir.Next})
+_FUNCS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2",
+                    "angdiff"})
+_CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=_NODES, functions=_FUNCS,
+                     derived_signals=frozenset({"payload"}))
+
+
+def is_team_mission(problem: PlanningProblem) -> bool:
+    """A mission whose requirement reads a payload is planned by the team chain."""
+    return any(s.endswith(".payload") for s in ir.signals(problem.requirement))
+
+
+def team_scenario(problem: PlanningProblem):
+    from stlc.team import TeamError
+    from stlc.team.seed import scenario_from_program
+
+    sep = float(stated_bounds(problem.requirement).get("distance_min", 0.0))
+    try:
+        return scenario_from_program(problem.program, problem.mission, separation=sep)
+    except TeamError as e:
+        raise StlcError([_diag(problem, e)]) from None
+
+
+def _diag(problem: PlanningProblem, e) -> Diagnostic:
+    span = problem.mission.span
+    subject = getattr(e, "subject", "")
+    if subject in problem.program.vehicles:
+        span = problem.program.vehicles[subject].span
+    else:
+        reg = problem.program.scenario.region(subject) if subject else None
+        if reg is not None:
+            span = reg.span
+    hints = {"capacity": "add a refilling station or raise the drones' `capacity`",
+             "horizon": "lengthen the mission's `horizon` or add drones",
+             "unreachable": "check the drones' bounds and the region's position",
+             "scenario": "team missions need point-mass drones with a `capacity`, "
+                         "`install_time` and `refill_time`"}
+    return Diagnostic("STL503", f"mission `{problem.mission.name}`: {e}", span,
+                      hints.get(getattr(e, "reason", ""), None))
+
+
+def plan_channels(plan) -> dict[str, np.ndarray]:
+    ch: dict[str, np.ndarray] = {}
+    for d in plan.pos:
+        for f, arr in (("pos", plan.pos[d]), ("vel", plan.vel[d]), ("acc", plan.acc[d])):
+            for i, a in enumerate("xyz"):
+                ch[f"{d}.{f}.{a}"] = np.asarray(arr[:, i], dtype=float)
+    return ch
+
+
+def solution_plan(sol: Solution):
+    """The ``TeamPlan`` carried by a team Solution (channels + routes + dwells)."""
+    from stlc.team import TeamPlan
+
+    drones = list(sol.routes)
+    get = lambda d, f: np.stack([sol.channels[f"{d}.{f}.{a}"] for a in "xyz"], axis=1)  # noqa
+    return TeamPlan(np.asarray(sol.times), {d: get(d, "pos") for d in drones},
+                    {d: get(d, "vel") for d in drones}, {d: get(d, "acc") for d in drones},
+                    list(sol.visits), {d: list(r) for d, r in sol.routes.items()})
+
+
+class MilpSeed(Backend):
+    name = "task-assignment MILP (cvxpy/HiGHS) + motion primitives"
+    capabilities = _CAPS
+    STATUS_MAP = {"optimal": SolverStatus.OPTIMAL, "optimal_inaccurate": SolverStatus.ACCEPTABLE,
+                  "infeasible": SolverStatus.INFEASIBLE, "user_limit": SolverStatus.MAX_TIME}
+
+    def lower(self, problem: PlanningProblem):
+        return team_scenario(problem), None
+
+    def solve(self, scenario, problem: PlanningProblem):
+        from stlc.team import TeamError
+        from stlc.team.milp import assign
+        from stlc.team.seed import seed_plan
+
+        try:
+            routes, stats = assign(scenario)
+        except TeamError as e:
+            raise StlcError([_diag(problem, e)]) from None
+        t0 = time.perf_counter()
+        plan = seed_plan(scenario, routes)
+        return plan, stats, time.perf_counter() - t0
+
+    def invert(self, raw, inverse, problem: PlanningProblem) -> Solution:
+        plan, stats, seed_s = raw
+        return Solution(
+            mission=problem.mission.name, status=Verdict.VIOLATED,
+            robustness_exact=float("nan"), robustness_smooth=float("nan"), specs={},
+            energy=0.0, times=plan.times, channels=plan_channels(plan),
+            timing={"milp_s": stats.wall_s, "seed_s": seed_s},
+            solver={"name": self.name, "status": str(SolverStatus.OPTIMAL),
+                    "milp_rounds": stats.rounds, "lazy_cuts": stats.cuts,
+                    "objective_s": stats.objective, "milp_cpu_s": stats.cpu_s},
+            routes={d: list(r) for d, r in plan.route.items()}, visits=list(plan.visits))
+
+
+class TeamRefine(Backend):
+    name = "team refinement (casadi/ipopt, waypoints)"
+    capabilities = _CAPS
+    STATUS_MAP = {"Solve_Succeeded": SolverStatus.OPTIMAL,
+                  "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
+                  "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
+                  "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
+                  "Restoration_Failed": SolverStatus.FAILED,
+                  "Maximum_CpuTime_Exceeded": SolverStatus.MAX_TIME,
+                  "User_Requested_Stop": SolverStatus.INTERRUPTED}
+
+    def __init__(self, eta: float | None = None):
+        self.eta = eta
+
+    def lower(self, problem: PlanningProblem):
+        return team_scenario(problem), None
+
+    def solve(self, scenario, problem: PlanningProblem):
+        from stlc.team.refine import refine
+
+        if problem.seed is None:
+            raise ValueError("team refinement needs a seed (run MilpSeed first)")
+        obj = problem.objective
+        eta = obj.forward_weight if self.eta is None else self.eta
+        t0 = time.perf_counter()
+        plan, stats = refine(scenario, solution_plan(problem.seed),
+                             lam=problem.smoothing.lam, kappa=problem.threshold, eta=eta,
+                             v_star=obj.forward_speed)
+        return plan, stats, time.perf_counter() - t0
+
+    def invert(self, raw, inverse, problem: PlanningProblem) -> Solution:
+        plan, stats, wall = raw
+        code = str(stats.get("status", ""))
+        status = self.status(code)
+        return Solution(
+            mission=problem.mission.name, status=Verdict.VIOLATED,
+            robustness_exact=float("nan"), robustness_smooth=float(stats.get("r", np.nan)),
+            specs={}, energy=0.0, times=plan.times, channels=plan_channels(plan),
+            timing={"solve_s": wall, "build_s": float(stats.get("build_cpu_s", 0.0))},
+            solver={"name": self.name, "return_status": str(status), "ipopt_status": code,
+                    "iterations": int(stats.get("iterations", 0)),
+                    "rounds": len(stats.get("rounds", [])),
+                    "forward_cost": stats.get("forward_cost")},
+            problem_size={"samples": int(plan.times.size),
+                          "variables": int(stats.get("variables", 0)),
+                          "constraints": int(stats.get("constraints", 0))},
+            routes={d: list(r) for d, r in plan.route.items()}, visits=list(plan.visits))
