@@ -25,7 +25,6 @@ from stlc.solution import Solution, SpecResult
 from stlc.timegrid import TimeGrid
 
 EXIT_OK, EXIT_UNSAT = 0, 3
-KAPPA_TOL = 1e-5  # IPOPT meets ρ̃ ≥ κ to its constraint tolerance
 
 
 def mission_specs(program: model.Program, mission: model.Mission) -> dict[str, tuple]:
@@ -118,7 +117,7 @@ def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> So
         specs[name] = SpecResult(
             robustness=float(r),
             smooth=float(smooth.smooth_robustness(nf, dt, ch, params, lam, method)),
-            satisfied=bool(r > 0),
+            satisfied=bool(r >= mission.threshold),
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
             line=span.line)
@@ -127,7 +126,10 @@ def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> So
     defect = casadi_nlp.dynamics_defect(w, inv, str(mission.options.get("integrator", "rk4")))
     feasible = defect <= casadi_nlp.FEASIBLE_DEFECT
     failed = not feasible or all(s.status == "failed" for s in raw.stages)
-    status = "satisfied" if exact > 0 and feasible else ("solver_failed" if failed else "violated")
+    # the contract: satisfied ⟺ exact robustness of the requirement as written ≥ κ (and the
+    # plan obeys the dynamics); a plan with 0 ≤ ρ < κ is "violated": its margin fell short
+    status = ("satisfied" if exact >= mission.threshold and feasible
+              else "solver_failed" if failed else "violated")
     sol = Solution(
         mission=mission.name, status=status, robustness_exact=exact,
         robustness_smooth=smooth_v, specs=specs, energy=energy,
@@ -135,6 +137,7 @@ def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> So
         solver={"name": "ipopt (casadi)", "iterations": sum(s.iterations for s in raw.stages),
                 "return_status": last.status if last else "not_run",
                 "max_dynamics_defect": defect,
+                "converged": bool(last.converged) if last else False,
                 "stages": [vars(s) for s in raw.stages]},
         smoothing={"method": method, "lambda": mission.smoothing.lam, "lambda_final": lam,
                    "threshold": mission.threshold},
@@ -147,9 +150,13 @@ def invert(program: model.Program, mission: model.Mission, raw, inv, prob) -> So
     if lam != mission.smoothing.lam:
         sol.notes.append(f"the smoothing λ was raised from {mission.smoothing.lam:g} to {lam:g} "
                          "(the smooth robustness under-estimates by up to ln(n)/λ)")
-    if smooth_v < mission.threshold - KAPPA_TOL:
-        sol.notes.append(f"smooth robustness {smooth_v:.6f} is below the threshold κ = "
-                         f"{mission.threshold:g}")
+    if 0 <= exact < mission.threshold:
+        sol.notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
+                         f"{mission.threshold:g}: the margin fell short")
+    for st in raw.stages:
+        if not st.converged:
+            sol.notes.append(f"stage `{st.label}` (λ = {st.lam:g}) did not converge "
+                             f"({st.status} after {st.iterations} iterations)")
     sol.extra["energy_profile"] = profile.tolist()
     comps = []
     for label, wc in raw.comparisons.items():
@@ -311,5 +318,11 @@ def _summary(sol: Solution, outdir: str) -> None:
         if worst is not None:
             name, s = worst
             at = f" at t = {s.tightest_time:g} s" if s.tightest_time is not None else ""
-            print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
-                  f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
+            if s.robustness < 0:
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
+                      f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
+            else:
+                kappa = sol.smoothing.get("threshold", 0.0)
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
+                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}: "
+                      f"{s.binding_predicate}", file=sys.stderr)

@@ -27,10 +27,15 @@ import casadi as ca
 import numpy as np
 
 from stlc import dynamics, ir, model
+from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import LoweredRobustness, lower_robustness
 from stlc.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
+#: the energy stage keeps the planner's smooth robustness ρ̃(P_κ(f)) >= PLAN_MARGIN (> 0, so
+#: that ρ(f) >= κ holds with IPOPT's constraint tolerance to spare)
+PLAN_MARGIN = 1e-3
+LAM_SCALING = True  # smooth an n-ary operator with λ·(1 + ln n) (smooth_casadi)
 #: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
 #: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
 #: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
@@ -76,7 +81,9 @@ def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
     return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
 IPOPT_DEFAULTS = {
     "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
-    "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4, "ipopt.acceptable_iter": 10,
+    "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-3, "ipopt.acceptable_iter": 5,
+    # a plan must meet the dynamics to FEASIBLE_DEFECT: IPOPT's own tests must check that
+    "ipopt.constr_viol_tol": 1e-7, "ipopt.acceptable_constr_viol_tol": 1e-7,
     "ipopt.mu_strategy": "adaptive", "ipopt.linear_solver": "mumps",
 }
 #: IPOPT's return statuses mapped to the shared solver status
@@ -122,7 +129,8 @@ class InverseData:
     grid: TimeGrid
     layouts: list[Layout]
     aux_slice: slice
-    formula: ir.Formula  # the normalised requirement
+    formula: ir.Formula  # the normalised requirement, as the user wrote it
+    planned: ir.Formula | None = None  # what the NLP optimises: casadi_expr.planner_form
 
 
 @dataclass
@@ -137,6 +145,9 @@ class Stage:
     objective: float
     t_functions: float = 0.0  # IPOPT's function/derivative evaluations (t_wall_nlp_*)
     t_verify: float = 0.0  # exact-monitor checks of iterates in the callback
+    converged: bool = False  # IPOPT's own test: Solve_Succeeded / Solved_To_Acceptable_Level
+    planner: float = 0.0  # ρ̃ of the planner form (what the NLP maximises / constrains)
+    regularizations: int = 0  # iterations where IPOPT regularised the KKT matrix
 
 
 @dataclass
@@ -182,8 +193,9 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
 
     formula = ir.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
-    lowered = lower_robustness(formula, grid, chans, program.params, lam,
-                               method=mission.smoothing.method)
+    planned = planner_form(formula, mission.threshold, program.params)
+    lowered = lower_robustness(planned, grid, chans, program.params, lam,
+                               method=mission.smoothing.method, lam_scaling=LAM_SCALING)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
     g_list, lbg, ubg = [], [], []
@@ -213,7 +225,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         if isinstance(v, model.Multirotor):
             xs = ca.SX.sym("x", L.nx)
             e_fn = ca.Function("e", [xs], [dynamics.energy_terms(v, xs, grid.dt)]).map(n)
-            energy += ca.sum2(e_fn(X))
+            energy += ca.sum2(e_fn(X)) / n  # mean per sample: O(1), like ρ̃
         elif mission.objective.forward_speed:
             vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)
             fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
@@ -240,7 +252,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
                       time.perf_counter() - t0)
-    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula)
+    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned)
     params = dict(program.params)
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
@@ -310,6 +322,7 @@ class Progress(ca.Callback):
         #: "robust": keep the feasible iterate with the best exact robustness; "objective":
         #: keep the satisfying feasible iterate with the lowest objective (energy stages)
         self.mode = "robust"
+        self.kappa = 0.0  # the mission's threshold: a plan satisfies iff exact ρ >= κ
         self.reset()
         self.construct(name, {})
 
@@ -354,7 +367,7 @@ class Progress(ca.Callback):
                 if self.mode == "robust":
                     score = exact
                 else:
-                    score = -float(arg[1]) if exact > 0 else -np.inf
+                    score = -float(arg[1]) if exact >= self.kappa else -np.inf
                 if score > self.best_score + 1e-4 * max(1.0, abs(score)):
                     self.best_score, self.best_exact = score, exact
                     self.best_x, self.best_it = np.asarray(arg[0]).ravel(), self.it
@@ -365,5 +378,5 @@ class Progress(ca.Callback):
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
                   f"smooth {rho:+.4f}  exact {ex}", file=self.stream or sys.stderr, flush=True)
         self.it += 1
-        stagnant = self.best_exact > 0 and self.it - self.best_it > self.patience
+        stagnant = self.best_exact >= self.kappa and self.it - self.best_it > self.patience
         return [1 if self.it >= self.limit or stagnant else 0]
