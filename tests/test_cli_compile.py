@@ -86,7 +86,8 @@ def assert_contract(sol: dict, mission_name: str, spec_names: set[str]) -> None:
     assert set(sol["specs"]) == spec_names
     for s in sol["specs"].values():
         assert isinstance(s["robustness"], float)
-        assert s["satisfied"] == (s["robustness"] > 0)
+        # satisfied means margin ≥ the declared threshold κ, not merely ≥ 0
+        assert s["satisfied"] == (s["robustness"] >= sol["smoothing"]["threshold"])
     assert isinstance(sol["energy"], float)
     for key in ("parse_s", "check_s", "build_s", "solve_s", "total_s"):
         assert sol["timing"][key] >= 0.0, key

@@ -10,14 +10,21 @@ forbidden box lies on the box's symmetry plane, where the smooth robustness has 
 sideways gradient, and the optimiser would stay inside (NLP_NOTES §3).  The full state guess
 is then position and velocity from this path, level attitude, zero rates, hover forces.
 
+**What is optimised.**  The NLP maximises the smooth robustness of the *planner form*
+``P_κ(f)`` (``casadi_expr.planner_form``): each predicate margin m becomes a smooth margin
+with the sign of m − κ, divided by its own scale (a box's half-width, a bound's value), so
+that ρ̃(P_κ f) > 0 certifies ρ(f) > κ for the formula as written (the exact monitor still
+judges that).  λ acts on these dimensionless margins.
+
 **The smoothing gap and the λ schedule.**  A smooth min over n operands under-estimates by
-up to ln(n)/λ: with the papers' λ = 10 a satisfiable mission can have no positive smooth
-robustness at all.  The schedule solves at the mission's λ first and, while the exact monitor
-says "violated", multiplies λ by ``LAM_FACTOR`` and re-solves from the previous plan (the NLP
-has λ as a parameter, nothing is rebuilt), up to ``LAM_MAX``.  Every dynamically feasible
-iterate is checked by the exact monitor and the best one kept.  Then, if the objective has
-energy terms, one more solve minimises ``w·E − ρ̃`` subject to ``ρ̃ ≥ κ``, imposed at the
-smallest λ where the robust plan already meets κ (paper A eq. 6).
+up to ln(n)/λ.  The schedule solves at the mission's λ first and, while the exact monitor
+says ρ < κ, multiplies λ by ``LAM_FACTOR`` and re-solves from the previous plan (the NLP
+has λ as a parameter, nothing is rebuilt), up to ``LAM_MAX``.  Every stage runs until
+IPOPT's own convergence test (or the iteration limit); every dynamically feasible iterate
+is checked by the exact monitor and the best one kept.  Then, if the objective has energy
+terms, one more solve minimises ``w·E/n − ρ̃(P_κ)`` at the smallest λ where the robust plan
+has ρ̃(P_κ) ≥ ``PLAN_MARGIN``; only if its plan misses κ, a second one adds the constraint
+ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (paper A eq. 6).
 """
 
 from __future__ import annotations
@@ -304,22 +311,25 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
     result = RawResult(best, lam, stages)
     robust_w = best
     if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact >= kappa:
-        # 2. paper A eq. 6: minimise w·E − ρ̃ subject to ρ̃(P_κ) ≥ PLAN_MARGIN (> 0, so every
-        #    feasible iterate has ρ ≥ κ), at the smallest λ of the schedule where the robust
-        #    plan already meets it (the solve starts feasible)
-        lam_e, k_eff = lam, None
-        while lam_e <= LAM_MAX:
-            if _planner_smooth(prob, inv, best, params, lam_e) >= PLAN_MARGIN:
-                k_eff = PLAN_MARGIN
-                break
+        # 2. paper A eq. 6 on the planner form: minimise w·E − ρ̃(P_κ), at the smallest λ of
+        #    the schedule where the robust plan has ρ̃(P_κ) ≥ PLAN_MARGIN.  First without the
+        #    constraint (−ρ̃ in the objective already keeps the plan away from ρ̃ < 0, and IPOPT
+        #    converges; with it active, the Hessian needs heavy regularisation), then, only if
+        #    the exact monitor finds ρ < κ, with ρ̃(P_κ) ≥ PLAN_MARGIN from the robust plan
+        lam_e = lam
+        while lam_e * LAM_FACTOR <= LAM_MAX and \
+                _planner_smooth(prob, inv, best, params, lam_e) < PLAN_MARGIN:
             lam_e *= LAM_FACTOR
-        if k_eff is None:
-            lam_e = lam
-        w_e, stats, f_, dt_ = _solve(
-            prob, fill_aux(prob, inv, best, params, lam_e),
-            [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
-            k_eff, f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE, most_robust=False)
+        p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
+        w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
+                                     f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
+                                     most_robust=False)
         st = record("energy", lam_e, w_e, stats, f_, dt_)
+        if st.exact < kappa:
+            w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e,
+                                         PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
+                                         STAGE_ITER, PATIENCE, most_robust=False)
+            st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
         if st.exact >= kappa:
             result.w, result.lam = w_e, lam_e
     for name, variant in mission.options.get("compare", []):
