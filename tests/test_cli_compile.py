@@ -318,7 +318,12 @@ def test_bench_compile_smoke(tmp_path, capsys):
                 "total s", "iterations", "exact ρ", "smooth ρ", "energy J", "/ paper 660 s"):
         assert col in head, col
     rows = [line.split() for line in lines if line.startswith("east ")]
-    assert len(rows) == 2  # the summary and the IPOPT split
+    # the summary, one row per solve stage (here: one robustness stage), the IPOPT split
+    assert len(rows) == 3
+    stage = rows[1]
+    assert stage[1] == "robustness" and stage[5] in ("yes", "no") and int(stage[3]) > 0
+    assert int(stage[6]) >= 0  # iterations with Hessian regularisation
+    assert "converged" in out and "regularised" in out and "CPU s" in head
     assert rows[0][1] == "31"  # samples: 3 s at 0.1 s
     assert int(rows[0][2]) >= 6 * 31 + 3 * 30  # variables: states, inputs, aux
     assert float(rows[0][10]) > 0  # exact robustness
