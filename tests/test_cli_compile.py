@@ -344,3 +344,28 @@ def test_bench_monitor_still_works(capsys):
 
     assert bench.main(["monitor", "--samples", "500", "--repeats", "20"]) == 0
     assert "exact monitor" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------- the threshold contract
+
+
+def test_margin_short_of_the_threshold_is_not_satisfied(tmp_path, capsys):
+    """``satisfied`` means exact robustness ≥ κ.  The shelf of hexa_climb.stl is 0.4 m tall
+    (half-width 0.2 m), so κ = 0.3 m cannot be met: the plan is reported violated (exit 3),
+    solution.json says so and why, and stderr names the spec whose margin fell short."""
+    text = CLIMB.read_text(encoding="utf-8").replace("step = 0.1 s",
+                                                     "step = 0.1 s\n  threshold = 0.3")
+    stl = write(tmp_path, "climb_k.stl", text)
+    out = tmp_path / "out"
+    assert main(["compile", str(stl), "-o", str(out), "-q"]) == 3
+    sol = json.loads((out / "solution.json").read_text(encoding="utf-8"))
+    exact = sol["robustness"]["exact"]
+    assert sol["status"] == "violated" and exact < 0.3
+    assert sol["smoothing"]["threshold"] == 0.3
+    assert all(s["satisfied"] == (s["robustness"] >= 0.3) for s in sol["specs"].values())
+    assert isinstance(sol["solver"]["converged"], bool)
+    err = capsys.readouterr().err
+    assert "error[STL501]" in err
+    if exact >= 0:
+        assert "short of the threshold κ = 0.3" in err
+        assert any("margin fell short" in n for n in sol["notes"])

@@ -138,7 +138,7 @@ def test_impossible_mission_is_violated(tmp_path):
 #                     4 λ stages, 300 it. each)        succeeds)
 #
 # Step 1.0 s (18 samples) is worse: left_tb -0.16, left -0.40, front solver_failed.
-HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.5, "handover_left": 0.25}
+HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.25, "handover_left": 0.25}
 
 
 @pytest.fixture(scope="module")
