@@ -47,7 +47,6 @@ from stlc.backends.casadi_nlp import (
     fill_aux,
     trajectory_channels,
 )
-from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.timegrid import TimeGrid
 
