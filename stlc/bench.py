@@ -11,7 +11,10 @@ RTAMT's ~97 ms.  No timing is asserted anywhere; this is a report.
 ``compile FILE [--mission NAME] [--repeats 3] [--step S]`` plans each mission of a file
 ``repeats`` times and prints, per mission, the medians of: samples, variables, constraints,
 build / initial-guess / solve / total seconds, IPOPT iterations, exact and smooth robustness,
-energy, and the ratio of the total to paper A's ~11 minutes (660 s) per handover plan.  A
+energy, how many runs were satisfied and ended on a converged final stage, the process CPU
+time (robust to busy neighbours), and the ratio of the total to paper A's ~11 minutes (660 s)
+per handover plan.  A stage table lists each solve stage of the median run: λ, iterations,
+status, whether IPOPT's own convergence test ended it, and IPOPT's regularisation count.  A
 second table splits IPOPT's time (summed over the solve stages) into function and derivative
 evaluations (``t_wall_nlp_f/g/grad_f/jac_g/hess_l`` from the solver's stats), the iteration
 callback (exact-monitor checks of iterates) and the rest (linear algebra + IPOPT overhead).
@@ -157,18 +160,25 @@ def _plan_once(program, mission, step: float | None, load_s: float) -> dict[str,
     from stlc.pipeline import plan
 
     with _solver_stats() as stats:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         _, sol = plan(program, mission, quiet=True, step=step)
         total = time.perf_counter() - t0 + load_s
+        cpu = time.process_time() - c0
+    stages = sol.solver.get("stages", [])
     ps, tm = sol.problem_size, sol.timing
     row = {
         "samples": ps.get("samples", 0), "variables": ps.get("variables", 0),
         "constraints": ps.get("constraints", 0),
         "build_s": tm.get("build_s", 0.0), "guess_s": tm.get("guess_s", 0.0),
         "solve_s": tm.get("solve_s", 0.0), "total_s": total,
-        "iterations": sol.solver.get("iterations", 0), "stages": len(sol.solver.get("stages", [])),
+        "iterations": sol.solver.get("iterations", 0), "stages": len(stages),
         "exact": sol.robustness_exact, "smooth": sol.robustness_smooth, "energy": sol.energy,
         "satisfied": float(sol.status == "satisfied"),  # summed, not medianed
+        "cpu_s": cpu,
+        "converged": float(bool(stages) and bool(stages[-1]["converged"])),  # summed
+        "stage_list": [(st["label"], st["lam"], st["iterations"], st["status"],
+                        st["converged"], st["regularizations"], st["solve_s"])
+                       for st in stages],
     }
     for key in NLP_TIMERS:
         row[key] = sum(float(s.get(f"t_wall_{key}", 0.0)) for s in stats)
@@ -179,8 +189,11 @@ def _plan_once(program, mission, step: float | None, load_s: float) -> dict[str,
 
 
 def _median_row(runs: list[dict[str, float]]) -> dict[str, float]:
-    out = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    out = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k != "stage_list"}
     out["satisfied"] = sum(r["satisfied"] for r in runs)
+    out["converged"] = sum(r["converged"] for r in runs)
+    # the stages of the run with the median total time
+    out["stage_list"] = sorted(runs, key=lambda r: r["total_s"])[len(runs) // 2]["stage_list"]
     out["runs"] = len(runs)
     return out
 
@@ -234,10 +247,21 @@ def _compile_run(args: argparse.Namespace) -> int:
                      f"{r['constraints']:.0f}", f"{r['build_s']:.2f}", f"{r['guess_s']:.2f}",
                      f"{r['solve_s']:.2f}", f"{r['total_s']:.2f}", f"{r['iterations']:.0f}",
                      f"{r['exact']:+.4f}", f"{r['smooth']:+.4f}", f"{r['energy']:.1f}",
-                     f"{r['satisfied']:.0f}/{r['runs']:.0f}", f"{r['total_s'] / PAPER_S:.4f}"])
+                     f"{r['satisfied']:.0f}/{r['runs']:.0f}",
+                     f"{r['converged']:.0f}/{r['runs']:.0f}", f"{r['cpu_s']:.2f}",
+                     f"{r['total_s'] / PAPER_S:.4f}"])
     print(table(["mission", "samples", "variables", "constraints", "build s", "guess s",
                  "solve s", "total s", "iterations", "exact ρ", "smooth ρ", "energy J",
-                 "satisfied", f"/ paper {PAPER_S:g} s"], rows))
+                 "satisfied", "final converged", "CPU s", f"/ paper {PAPER_S:g} s"], rows))
+    print("\nSolve stages (the run with the median total; converged = IPOPT's own test, "
+          "regularised = iterations with δ_w > 0):\n")
+    rows = []
+    for name, r in results.items():
+        for label, lam, its, status, conv, reg, secs in r["stage_list"]:
+            rows.append([name, label, f"{lam:g}", f"{its}", status, "yes" if conv else "no",
+                         f"{reg}", f"{secs:.2f}"])
+    print(table(["mission", "stage", "λ", "iterations", "status", "converged", "regularised",
+                 "solve s"], rows))
     print("\nIPOPT time split, summed over the solve stages (s, share of solve s):\n")
     rows = []
     for name, r in results.items():

@@ -62,5 +62,11 @@ def summary(sol: Solution, outdir: str) -> None:
         if worst is not None:
             name, s = worst
             at = f" at t = {s.tightest_time:g} s" if s.tightest_time is not None else ""
-            print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
-                  f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
+            if s.robustness < 0:
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
+                      f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
+            else:
+                kappa = sol.smoothing.get("threshold", 0.0)
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
+                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}: "
+                      f"{s.binding_predicate}", file=sys.stderr)

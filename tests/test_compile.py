@@ -128,7 +128,7 @@ def test_impossible_mission_is_violated(tmp_path):
 # code (single-threaded MUMPS, 2 shared cores), exact robustness and wall time:
 #
 #   mission           step 0.5 s (35 samples)         step 0.25 s (69 samples)
-#   handover_front    satisfied +0.056, 8 s  ← used    satisfied +0.059, 35 s
+#   handover_front    satisfied +0.056, 8 s           satisfied +0.059, 35 s  ← used
 #   handover_left_tb  VIOLATED  -0.050, 20 s           satisfied +0.062, 15 s  ← used
 #                     (visibility/approach fail
 #                     in all 4 λ stages)
@@ -137,7 +137,11 @@ def test_impossible_mission_is_violated(tmp_path):
 #                     4 λ stages, 300 it. each)        succeeds)
 #
 # Step 1.0 s (18 samples) is worse: left_tb -0.16, left -0.40, front solver_failed.
-HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.5, "handover_left": 0.25}
+# (Table above: the code before the planner form.)  With the planner form (branch nlp),
+# handover_front at 0.5 s ended at exact ≈ 0 (violated) under two of three hash seeds, so it
+# is planned at 0.25 s too; at 0.25 s all three passed with PYTHONHASHSEED=1, handover_left
+# failed (local optimum, -0.49) with PYTHONHASHSEED=2.
+HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.25, "handover_left": 0.25}
 
 
 @pytest.fixture(scope="module")
@@ -161,7 +165,7 @@ def handover_plans(handover_program):
 
 
 @pytest.mark.parametrize("name", list(HANDOVER_STEPS))
-def test_handover_mission_plans_satisfying(handover_plans, name):
+def test_handover_mission_plans_satisfying(handover_plans, handover_program, name):
     _, sol, wall = handover_plans(name)
     stages = ", ".join(f"{s['label']} λ={s['lam']:g} {s['iterations']} it {s['status']} "
                        f"exact {s['exact']:+.4f} ({s['solve_s']:.1f} s)"
@@ -171,7 +175,7 @@ def test_handover_mission_plans_satisfying(handover_plans, name):
           f"{sol.energy:.1f} J; {wall:.1f} s (build {sol.timing['build_s']:.1f}, guess "
           f"{sol.timing['guess_s']:.1f}, solve {sol.timing['solve_s']:.1f}); {stages}")
     assert sol.status == "satisfied", stages
-    assert sol.robustness_exact > 0
+    assert sol.robustness_exact >= handover_program.missions[name].threshold  # the contract
     assert sol.robustness_smooth <= sol.robustness_exact + 1e-9
     # every named spec of the mission holds, and the requirement is their conjunction
     assert set(sol.specs) >= {"safety", "visibility", "approach", "comfort", "handover"}
@@ -250,10 +254,10 @@ def report_defects(label: str, d: np.ndarray) -> dict[str, float]:
 
 def test_multirotor_plan_matches_its_rk4_transcription(handover_plans, handover_program,
                                                       tmp_path):
-    _, sol, _ = handover_plans("handover_front")  # planned at 0.5 s
+    _, sol, _ = handover_plans("handover_front")  # planned at HANDOVER_STEPS' coarse step
     trace = plan_trace(sol, tmp_path)
-    assert trace.dt == pytest.approx(0.5)
-    d = report_defects("handover_front, 0.5 s, numpy RK4",
+    assert trace.dt == pytest.approx(HANDOVER_STEPS["handover_front"])
+    d = report_defects(f"handover_front, {trace.dt:g} s, numpy RK4",
                        interval_defects(trace, handover_program.vehicles["uav1"], "rk4"))
     assert max(d.values()) < 1e-5  # FEASIBLE_DEFECT 1e-6 plus the CSV's 9 digits
 

@@ -171,6 +171,7 @@ class CasadiNlp(Backend):
                     "iterations": sum(s.iterations for s in raw.stages),
                     "return_status": last.status if last else "not_run",
                     "max_dynamics_defect": defect,
+                    "converged": bool(last.converged) if last else False,
                     "stages": [vars(s) for s in raw.stages]},
             smoothing={"method": mission.smoothing.method, "lambda": mission.smoothing.lam,
                        "lambda_final": lam, "threshold": mission.threshold},
@@ -186,6 +187,10 @@ class CasadiNlp(Backend):
         if lam != mission.smoothing.lam:
             sol.notes.append(f"the smoothing λ was raised from {mission.smoothing.lam:g} to "
                              f"{lam:g} (the smooth robustness under-estimates by up to ln(n)/λ)")
+        for st in raw.stages:
+            if not st.converged:
+                sol.notes.append(f"stage `{st.label}` (λ = {st.lam:g}) did not converge "
+                                 f"({st.status} after {st.iterations} iterations)")
         for label, wc in raw.comparisons.items():
             chc = channels_with_derived(inv, wc)
             ec, pc = energy_profile(inv, chc)

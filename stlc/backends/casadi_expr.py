@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 from functools import reduce
 
 import casadi as ca
+import numpy as np
 
 from stlc import ir
 
@@ -261,3 +262,145 @@ EXPR_LOWER: dict[type, Callable[..., Num]] = {
     ir.Bin: _bin,
     ir.Call: _call,
 }
+
+
+# --------------------------------------------------------------------------- planner form
+# The planner optimises ``P_κ(f)``: every predicate margin m is replaced by a smooth margin
+# m' with sign(m') = sign(m - κ) (``planner_expr``), divided by a scale s > 0 (``_scales``).
+# Robustness in NNF is a min/max tree over predicate values, so its sign depends only on
+# the signs of the predicates: ρ(P_κ(f)) > 0  ⟺  ρ(f) > κ, and the (sound) smooth
+# robustness ρ̃(P_κ(f)) > 0 certifies ρ(f) > κ for the formula as the user wrote it.
+
+#: speed (m/s) below which the heading predicate's planner form fades to 0 (hover)
+HEADING_V0 = 0.1
+#: ε (m/s) in ‖v‖_ε = √(‖v‖² + ε²): bounds the curvature at hover (cos γ/ε) and makes the
+#: planner form conservative (it asks cos Δ ≥ cos γ·‖v‖_ε/‖v‖, ≈ 0.5 % stricter at 0.1 m/s)
+HEADING_EPS = 1e-2
+#: divide each planner margin by its scale (box half-width, bound); else keep user units
+SCALE_MARGINS = True
+
+
+def _shift(e: ir.Expr, k: float) -> ir.Expr:
+    """``e - k`` with k folded into a constant side of ``e``."""
+    if k == 0:
+        return e
+    if isinstance(e, ir.Bin) and e.op == "-":
+        if isinstance(e.left, ir.Const):
+            return ir.Bin("-", ir.Const(e.left.value - k), e.right)
+        if isinstance(e.right, ir.Const):
+            return ir.Bin("-", e.left, ir.Const(e.right.value + k))
+    return ir.Bin("-", e, ir.Const(k))
+
+
+def _sqrt_bound(e: ir.Expr) -> tuple[ir.Expr, float] | None:
+    """``c - sqrt(a)`` → ``(c² - a) / (c + sqrt(a + δ²))`` and ``sqrt(a) - c`` →
+    ``(a - c²) / (c + sqrt(a + δ²))``, δ = c/10 (c > 0): the same sign, the same value up to
+    δ near the bound, no infinite curvature at a = 0 (a speed at hover)."""
+    if not (isinstance(e, ir.Bin) and e.op == "-"):
+        return None
+    for root, const, sign in ((e.right, e.left, -1.0), (e.left, e.right, 1.0)):
+        if (isinstance(root, ir.Call) and root.fn == "sqrt" and isinstance(const, ir.Const)
+                and const.value > 0):
+            c = float(const.value)
+            a = root.args[0]
+            diff = ir.Bin("-", a, ir.Const(c * c)) if sign > 0 else ir.Bin("-", ir.Const(c * c), a)
+            den = ir.Bin("+", ir.Const(c), ir.Call("sqrt", (ir.Bin("+", a, ir.Const(
+                (c / 10) ** 2)),)))
+            return ir.Bin("/", diff, den), c
+    return None
+
+
+def _heading_bound(e: ir.Expr) -> tuple[ir.Expr, float] | None:
+    """``γ - abs(angdiff(ψ, atan2(y, x)))`` → ``(cos ψ·x + sin ψ·y - cos γ·‖v‖_ε) / ‖v‖₀``
+    with v = (x, y), ‖v‖_ε = √(‖v‖² + ε²), ‖v‖₀ = √(‖v‖² + v0²): the angle between the
+    heading vector and v is ≤ γ iff the projection is ≥ cos γ·‖v‖, so this is positive
+    only where the predicate holds (conservative by ε), smooth with bounded curvature at
+    hover instead of atan2's singularity, and ≈ cos Δ - cos γ when moving.  Scale 1 - cos γ
+    (so that flying straight along the heading has margin ≈ 1)."""
+    if not (isinstance(e, ir.Bin) and e.op == "-" and isinstance(e.left, ir.Const)):
+        return None
+    g, ab = float(e.left.value), e.right
+    if not (0.0 < g < np.pi and isinstance(ab, ir.Call) and ab.fn == "abs"
+            and isinstance(ab.args[0], ir.Call) and ab.args[0].fn == "angdiff"):
+        return None
+    a, b = ab.args[0].args
+    if isinstance(a, ir.Call) and a.fn == "atan2":
+        a, b = b, a
+    if not (isinstance(b, ir.Call) and b.fn == "atan2"):
+        return None
+    y, x = b.args
+    dot = ir.Bin("+", ir.Bin("*", ir.Call("cos", (a,)), x), ir.Bin("*", ir.Call("sin", (a,)), y))
+    sq = ir.Bin("+", ir.Bin("*", x, x), ir.Bin("*", y, y))
+    num = ir.Bin("-", dot, ir.Bin("*", ir.Const(float(np.cos(g))), ir.Call("sqrt", (
+        ir.Bin("+", sq, ir.Const(HEADING_EPS**2)),))))
+    den = ir.Call("sqrt", (ir.Bin("+", sq, ir.Const(HEADING_V0**2)),))
+    return ir.Bin("/", num, den), float(1.0 - np.cos(g))
+
+
+def planner_expr(e: ir.Expr, kappa: float = 0.0) -> tuple[ir.Expr, float | None]:
+    """The margin the planner optimises for the predicate ``e >= κ`` (same sign as e - κ)
+    and its natural scale (None: unknown)."""
+    if isinstance(e, ir.Neg):
+        inner, s = planner_expr(e.arg, -kappa)
+        return ir.Neg(inner), s
+    e = _shift(e, kappa)
+    for rule in (_heading_bound, _sqrt_bound):
+        out = rule(e)
+        if out is not None:
+            return out
+    return e, None
+
+
+def _pair_width(a: ir.Expr, b: ir.Expr, params: Mapping[str, float]) -> float | None:
+    """w if ``a + b`` is the constant w > 0 for any signal values (a box's two faces)."""
+    from stlc import monitor
+
+    sigs = {leaf.name for x in (a, b) for leaf in ir.expr_leaves(x) if isinstance(leaf, ir.Sig)}
+    rng = np.random.default_rng(0)
+    ch = {s: rng.normal(0.0, 3.0, 3) for s in sigs}
+    try:
+        tot = np.asarray(monitor.eval_expr(a, ch, params) + monitor.eval_expr(b, ch, params))
+    except Exception:  # noqa: BLE001 - anything unevaluable simply has no pair scale
+        return None
+    w = float(np.ravel(tot)[0])
+    return abs(w) if np.allclose(tot, w, rtol=1e-9, atol=1e-12) and abs(w) > 1e-9 else None
+
+
+def _scales(f: ir.Formula, params: Mapping[str, float], out: dict) -> None:
+    """Half the width of a box (two predicates of one and/or summing to a constant)."""
+    if isinstance(f, ir.And | ir.Or):
+        preds = [a for a in f.args if isinstance(a, ir.Pred)]
+        for i, p in enumerate(preds):
+            for q in preds[i + 1:]:
+                if p not in out and q not in out:
+                    w = _pair_width(p.expr, q.expr, params)
+                    if w is not None:
+                        out[p] = out[q] = w / 2
+    for c in ir.children(f):
+        _scales(c, params, out)
+
+
+def planner_form(f: ir.Formula, kappa: float = 0.0,
+                 params: Mapping[str, float] | None = None) -> ir.Formula:
+    """``P_κ(f)`` (NNF): each predicate m ≥ 0 becomes (planner_expr of m - κ) / s with s the
+    half-width of its box, else the bound's own scale (``planner_expr``), else 1."""
+    box: dict = {}
+    _scales(f, params or {}, box)
+
+    def go(g: ir.Formula) -> ir.Formula:
+        match g:
+            case ir.Pred(expr, label, span):
+                new, s = planner_expr(expr, kappa)
+                s = (box.get(g, s) or 1.0) if SCALE_MARGINS else 1.0
+                return ir.Pred(new if s == 1.0 else ir.Bin("/", new, ir.Const(s)), label, span)
+            case ir.And(args, span) | ir.Or(args, span):
+                return type(g)(tuple(go(a) for a in args), span)
+            case ir.Always(lo, hi, a, span) | ir.Eventually(lo, hi, a, span):
+                return type(g)(lo, hi, go(a), span)
+            case ir.Until(lo, hi, a, b, span) | ir.Release(lo, hi, a, b, span):
+                return type(g)(lo, hi, go(a), go(b), span)
+            case ir.Next(a, span):
+                return ir.Next(go(a), span)
+        return g
+
+    return go(f)

@@ -10,14 +10,21 @@ forbidden box lies on the box's symmetry plane, where the smooth robustness has 
 sideways gradient, and the optimiser would stay inside (NLP_NOTES §3).  The full state guess
 is then position and velocity from this path, level attitude, zero rates, hover forces.
 
+**What is optimised.**  The NLP maximises the smooth robustness of the *planner form*
+``P_κ(f)`` (``casadi_expr.planner_form``): each predicate margin m becomes a smooth margin
+with the sign of m − κ, divided by its own scale (a box's half-width, a bound's value), so
+that ρ̃(P_κ f) > 0 certifies ρ(f) > κ for the formula as written (the exact monitor still
+judges that).  λ acts on these dimensionless margins.
+
 **The smoothing gap and the λ schedule.**  A smooth min over n operands under-estimates by
-up to ln(n)/λ: with the papers' λ = 10 a satisfiable mission can have no positive smooth
-robustness at all.  The schedule solves at the mission's λ first and, while the exact monitor
-says "violated", multiplies λ by ``LAM_FACTOR`` and re-solves from the previous plan (the NLP
-has λ as a parameter, nothing is rebuilt), up to ``LAM_MAX``.  Every dynamically feasible
-iterate is checked by the exact monitor and the best one kept.  Then, if the objective has
-energy terms, one more solve minimises ``w·E − ρ̃`` subject to ``ρ̃ ≥ κ``, imposed at the
-smallest λ where the robust plan already meets κ (paper A eq. 6).
+up to ln(n)/λ.  The schedule solves at the mission's λ first and, while the exact monitor
+says ρ < κ, multiplies λ by ``LAM_FACTOR`` and re-solves from the previous plan (the NLP
+has λ as a parameter, nothing is rebuilt), up to ``LAM_MAX``.  Every stage runs until
+IPOPT's own convergence test (or the iteration limit); every dynamically feasible iterate
+is checked by the exact monitor and the best one kept.  Then, if the objective has energy
+terms, one more solve minimises ``w·E/n − ρ̃(P_κ)`` at the smallest λ where the robust plan
+has ρ̃(P_κ) ≥ ``PLAN_MARGIN``; only if its plan misses κ, a second one adds the constraint
+ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (paper A eq. 6).
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import numpy as np
 
 from stlc import dynamics, ir, model
 from stlc.backends.casadi_nlp import (
+    PLAN_MARGIN,
     STATUS_MAP,
     InverseData,
     NlpProblem,
@@ -47,7 +55,7 @@ LAM_MAX = 300.0
 GUESS_LAM = 30.0
 FIRST_STAGE_ITER = 200
 STAGE_ITER = 300
-PATIENCE = 30  # stop a stage 30 iterations after its best verified plan stopped improving
+PATIENCE = 10**9  # stages end on IPOPT's own tests (or the iteration limit), not on ours
 MAX_LAM_STAGES = 4
 GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
 GUESS_ACC = 2.0  # m/s^2
@@ -226,16 +234,28 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     stats = dict(prob.solver.stats())
     # IPOPT's last iterate may be worse than (or infeasible unlike) the best verified one
     ok = stats.get("return_status") in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-    if progress.best_x is not None and (not ok or progress.best_exact > 0):
+    if progress.best_x is not None and (not ok or progress.best_exact >= progress.kappa):
         last = progress.verify(x, np.asarray(sol["g"]).ravel()) if progress.verify else None
         if most_robust:
             keep_last = last is not None and last >= progress.best_exact
         else:
-            keep_last = last is not None and last > 0 and ok
+            keep_last = last is not None and last >= progress.kappa and ok
         if not keep_last:
             x = progress.best_x
             stats["best_iterate"] = progress.best_it
     return x, stats, float(sol["f"]), dt
+
+
+def _regularizations(stats: dict) -> int:
+    """Iterations in which IPOPT regularised the KKT matrix (lg(rg) printed, δ_w > 0)."""
+    its = stats.get("iterations") or {}
+    return int(sum(1 for r in its.get("regularization_size", []) if r > 0))
+
+
+def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
+                    params: dict[str, float], lam: float) -> float:
+    """Un-lifted smooth robustness of the planner form (what the NLP sees) at ``w``."""
+    return prob.lowered.init_values(trajectory_channels(w, inv), params, lam)[1]
 
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
@@ -248,23 +268,32 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
     lam = mission.smoothing.lam
     method = mission.smoothing.method
     stages: list[Stage] = []
+    prob.progress.kappa = kappa
 
     def record(label, lam_, w_, stats, f_, dt_):
         ch = trajectory_channels(w_, inv)
         exact = exact_robustness(inv.formula, inv, w_, params)
         sm = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, params, lam_, method))
-        status = STATUS_MAP.get(stats.get("return_status", ""), "failed")
+        ret = stats.get("return_status", "")
+        status = STATUS_MAP.get(ret, "failed")
         if status == "max_iter" and "best_iterate" in stats:
             status = "stopped"
         t_fn = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
         st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_,
-                   t_fn, prob.progress.t_verify)
+                   t_fn, prob.progress.t_verify,
+                   converged=ret in ("Solve_Succeeded", "Solved_To_Acceptable_Level"),
+                   planner=_planner_smooth(prob, inv, w_, params, lam_),
+                   regularizations=_regularizations(stats))
         stages.append(st)
         if not quiet:
-            print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}, "
-                  f"smooth {sm:+.4f}, exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
+            print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}"
+                  f"{' (converged)' if st.converged else ''}, planner ρ̃ {st.planner:+.4f}, "
+                  f"exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
         return st
 
+    # 1. robustness: maximise ρ̃ of the planner form P_κ (margins relative to κ, in units
+    #    of each predicate's own scale) until IPOPT converges; raise λ while the exact
+    #    monitor says ρ < κ
     w, best, best_st = w0, w0, None
     for k in range(MAX_LAM_STAGES):
         limit = FIRST_STAGE_ITER if k == 0 else STAGE_ITER
@@ -273,34 +302,34 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         st = record("robustness", lam, w, stats, f_, dt_)
         if best_st is None or st.exact > best_st.exact:
             best, best_st = w, st
-        if st.exact > 0 or lam * LAM_FACTOR > LAM_MAX:
+        if st.exact >= kappa or lam * LAM_FACTOR > LAM_MAX:
             break
         lam *= LAM_FACTOR
         w = fill_aux(prob, inv, w, params, lam)
     lam = best_st.lam
     result = RawResult(best, lam, stages)
     robust_w = best
-    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact > 0:
-        # paper A eq. 6: minimise w·E − ρ̃ subject to ρ̃ ≥ κ.  The constraint is imposed at the
-        # smallest λ of the schedule where the robust plan already meets it (so the solve
-        # starts feasible); GKL is sound, so ρ̃ ≥ κ > 0 then certifies every iterate.
-        lam_e, k_eff = lam, None
-        ch = trajectory_channels(best, inv)
-        while lam_e <= LAM_MAX:
-            sm = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, params, lam_e,
-                                                method))
-            if sm >= kappa:
-                k_eff = kappa
-                break
+    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact >= kappa:
+        # 2. paper A eq. 6 on the planner form: minimise w·E − ρ̃(P_κ), at the smallest λ of
+        #    the schedule where the robust plan has ρ̃(P_κ) ≥ PLAN_MARGIN.  First without the
+        #    constraint (−ρ̃ in the objective already keeps the plan away from ρ̃ < 0, and IPOPT
+        #    converges; with it active, the Hessian needs heavy regularisation), then, only if
+        #    the exact monitor finds ρ < κ, with ρ̃(P_κ) ≥ PLAN_MARGIN from the robust plan
+        lam_e = lam
+        while lam_e * LAM_FACTOR <= LAM_MAX and \
+                _planner_smooth(prob, inv, best, params, lam_e) < PLAN_MARGIN:
             lam_e *= LAM_FACTOR
-        if k_eff is None:
-            lam_e = lam
-        w_e, stats, f_, dt_ = _solve(
-            prob, fill_aux(prob, inv, best, params, lam_e),
-            [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight],
-            k_eff, f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE, most_robust=False)
+        p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
+        w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
+                                     f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
+                                     most_robust=False)
         st = record("energy", lam_e, w_e, stats, f_, dt_)
-        if st.exact > 0:
+        if st.exact < kappa:
+            w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e,
+                                         PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
+                                         STAGE_ITER, PATIENCE, most_robust=False)
+            st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
+        if st.exact >= kappa:
             result.w, result.lam = w_e, lam_e
     for name, variant in mission.options.get("compare", []):
         if variant is None:

@@ -197,8 +197,9 @@ class _Lowerer:
     ``"aux"`` (introduce aux variables and constraints)."""
 
     def __init__(self, grid: TimeGrid, env: ExprEnv, mode: str, dyadic: bool, lift_span: int,
-                 hypograph: bool = False):
+                 hypograph: bool = False, lam_scaling: bool = False):
         self.grid, self.n, self.env, self.lam = grid, grid.n, env, env.lam
+        self.base_lam, self.lam_scaling = env.lam, lam_scaling
         self.mode, self.dyadic, self.lift_span = mode, dyadic, lift_span
         self.hypograph = hypograph
         self.min_alg, self.max_alg = MinAlg(), max_alg(env.method)
@@ -282,6 +283,8 @@ class _Lowerer:
             k = need[node]
             if len(k):
                 self.mono = mono[node]
+                if self.lam_scaling:
+                    self.lam = self.base_lam * (1.0 + np.log(_fan_in(node, self.grid)))
                 fn = LOWER.get(type(node))
                 if fn is None:
                     raise LoweringError(f"{type(node).__name__} is not an NNF node; "
@@ -414,6 +417,17 @@ def _child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
     return []
 
 
+def _fan_in(f: ir.Formula, grid: TimeGrid) -> int:
+    """Operands of one smooth op of ``f`` (and/or: its arguments; a temporal operator: its
+    whole window, unclipped), ≥ 1."""
+    if isinstance(f, ir.And | ir.Or):
+        return max(1, len(f.args))
+    if isinstance(f, ir.Always | ir.Eventually | ir.Until | ir.Release):
+        a, b = grid.window(f.lo, f.hi)
+        return max(1, (b - a + 1) if isinstance(f, ir.Always | ir.Eventually) else b + 2)
+    return 1
+
+
 # --------------------------------------------------------------------------- dispatch
 
 
@@ -482,7 +496,7 @@ def _is_symbolic(x: object) -> bool:
 def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX],
                      params: Mapping[str, Num], lam: Num, method: str = "gkl",
                      lift: bool = True, dyadic: bool = True, lift_span: int = 4,
-                     hypograph: bool = False) -> LoweredRobustness:
+                     hypograph: bool = False, lam_scaling: bool = False) -> LoweredRobustness:
     """Smooth robustness of the NNF formula ``f`` at sample 0 as CasADi SX.
 
     ``channels`` maps each signal to a 1×n SX row (n = ``grid.n``; entries may be decision
@@ -490,6 +504,8 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
     ``lift`` introduces aux variables (see module docstring) for smooth ops wider than
     ``lift_span`` operands, constrained by equalities or (``hypograph``, where sound and
     exact) by ``g >= 0``; ``dyadic`` evaluates sliding windows from power-of-two blocks.
+    With ``lam_scaling`` an operator over n operands smooths with λ·(1 + ln n) instead of λ,
+    so that its worst-case under-estimate ln(n)/λ_op stays below 1/λ for any window length.
     """
     n = grid.n
     sigs, pars = sorted(ir.signals(f)), sorted(ir.params(f))
@@ -513,7 +529,7 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
         names.append(_LAM)
 
     shadow = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "shadow" if lift else "none",
-                      dyadic, lift_span)
+                      dyadic, lift_span, lam_scaling=lam_scaling)
     root0 = shadow.run(f)
     aux0 = ca.vertcat(*shadow.init) if shadow.init else ca.SX(0, 1)
     init = ca.Function("robustness_init", inputs, [aux0, root0], names, ["aux", "root"])
@@ -521,7 +537,7 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
     if lift:
         chans = {s: ca.SX(channels[s]) for s in sigs}
         lw = _Lowerer(grid, ExprEnv(chans, dict(params), lam, method), "aux", dyadic, lift_span,
-                      hypograph)
+                      hypograph, lam_scaling)
         root = lw.run(f)
         aux = ca.vertcat(*lw.aux) if lw.aux else ca.SX(0, 1)
         g = ca.vertcat(*lw.g) if lw.g else ca.SX(0, 1)

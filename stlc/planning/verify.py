@@ -4,8 +4,10 @@ Derived signals are recomputed from the plan's states by the vehicle models (and
 payload from positions, for team missions), never taken from the planner; then the exact
 robustness of the requirement, of every named spec (with its tightest time and binding
 predicate) and of every comparison plan is computed on the dense trajectory at the
-mission's step, and the verdict is set: ``satisfied`` when the exact robustness is positive
-and the plan obeys the dynamics.
+mission's step, and the verdict is set.  The contract: ``satisfied`` ⟺ the exact robustness of the
+requirement as written is ≥ the mission's threshold κ and the plan obeys the dynamics; a
+plan with 0 ≤ ρ < κ is ``violated`` (its margin fell short), and so is every named spec
+whose robustness is below κ.
 """
 
 from __future__ import annotations
@@ -16,8 +18,6 @@ from stlc import ir, monitor, smooth, vehicles
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
 from stlc.solution import Solution, SpecResult, Verdict
-
-KAPPA_TOL = 1e-5  # IPOPT meets ρ̃ ≥ κ to its constraint tolerance
 
 
 def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, list]:
@@ -46,6 +46,7 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     """Set the exact robustness, per-spec results, verdict and report data of ``sol``."""
     dt = problem.grid.dt
     params = problem.params
+    kappa = problem.threshold
     lam = float(sol.smoothing.get("lambda_final", problem.smoothing.lam))
     method = problem.smoothing.method
     ch, sol.events = recompute_derived(problem, sol.channels)
@@ -57,15 +58,16 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
         sol.specs[name] = SpecResult(
             robustness=float(r),
             smooth=float(smooth.smooth_robustness(spec.normal, dt, ch, params, lam, method)),
-            satisfied=bool(r > 0),
+            satisfied=bool(r >= kappa),
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
             line=spec.span.line)
     if sol.status != Verdict.SOLVER_FAILED:
-        sol.status = Verdict.SATISFIED if exact > 0 and sol.feasible else Verdict.VIOLATED
-    if sol.robustness_smooth < problem.threshold - KAPPA_TOL:
-        sol.notes.append(f"smooth robustness {sol.robustness_smooth:.6f} is below the "
-                         f"threshold κ = {problem.threshold:g}")
+        sol.status = (Verdict.SATISFIED if exact >= kappa and sol.feasible
+                      else Verdict.VIOLATED)
+    if 0 <= exact < kappa:
+        sol.notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
+                         f"{kappa:g}: the margin fell short")
     for c in sol.comparisons:
         c.channels, _ = recompute_derived(problem, c.channels)
         c.robustness_exact = float(monitor.robustness(problem.requirement, dt, c.channels,
