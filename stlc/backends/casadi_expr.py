@@ -355,7 +355,8 @@ def _pair_width(a: ir.Expr, b: ir.Expr, params: Mapping[str, float]) -> float | 
     """w if ``a + b`` is the constant w > 0 for any signal values (a box's two faces)."""
     from stlc import monitor
 
-    sigs = {leaf.name for x in (a, b) for leaf in ir.expr_leaves(x) if isinstance(leaf, ir.Sig)}
+    sigs = sorted({leaf.name for x in (a, b) for leaf in ir.expr_leaves(x)
+                   if isinstance(leaf, ir.Sig)})
     rng = np.random.default_rng(0)
     ch = {s: rng.normal(0.0, 3.0, 3) for s in sigs}
     try:
