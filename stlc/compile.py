@@ -3,17 +3,15 @@
 load (parse + check) → for each mission: TimeGrid → ``casadi_nlp.build`` → kinematic guess →
 λ schedule → ``invert`` (exact monitor re-evaluates every plan) → ``Solution`` →
 ``solution.json``, ``trajectory.csv``, ``report.html`` (+ ``risk.json``, ``risk_samples.npz``).
-Outputs of a mission are written only after its plan exists, into a temporary directory that
-is renamed into place, so nothing is left half-written.
+Outputs of a mission are written only after its plan exists, by ``stlc.outputs`` (only
+stlc's own files, each replaced atomically; the directory is checked before any solve).
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 import sys
-import tempfile
 import time
 from dataclasses import replace
 
@@ -226,14 +224,12 @@ def _windows(program: model.Program, mission: model.Mission) -> list[dict]:
 
 def write_outputs(outdir: str, program: model.Program, mission: model.Mission, sol: Solution,
                   risk: dict | None = None, risk_results=None) -> None:
-    """Write every output of one mission atomically (temp dir, then rename)."""
+    """Write every output of one mission into ``outdir`` (``stlc.outputs``: only stlc's own
+    files, each replaced atomically, as one set under a lock on the directory)."""
+    from stlc.outputs import staged
     from stlc.report import write_report
 
-    parent = os.path.dirname(os.path.abspath(outdir)) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".stlc-", dir=parent)
-    os.chmod(tmp, 0o755)  # mkdtemp makes it private; outputs are ordinary files to share
-    try:
+    with staged(outdir, mission.span) as tmp:
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
             fh.write(sol.to_json())
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
@@ -247,12 +243,6 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
                 save_samples(os.path.join(tmp, "risk_samples.npz"), risk_results)
             sol.extra["risk"] = risk
         write_report(os.path.join(tmp, "report.html"), program, mission, sol)
-        if os.path.isdir(outdir):
-            shutil.rmtree(outdir)
-        os.replace(tmp, outdir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
@@ -277,6 +267,13 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                                     Span(path, 1, 1, 1, 2),
                                     "add `mission NAME { ... }`, or use `stlc monitor`")])
     several = len(missions) > 1
+    base = out if out is not None else "reports"
+    outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
+               for m in missions}
+    from stlc.outputs import preflight
+
+    for m in missions:  # before any solve: can the outputs be written at all?
+        preflight(outdirs[m.name], m.span if m.span.known else Span(path, 1, 1, 1, 2))
     code = EXIT_OK
     for m in missions:
         t1 = time.perf_counter()
@@ -290,8 +287,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
             risk_json, results = run_risk(program, m, sol)
             sol.timing["risk_s"] = time.perf_counter() - tr
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
-        base = out if out is not None else "reports"
-        outdir = os.path.join(base, m.name) if (several or out is None) else base
+        outdir = outdirs[m.name]
         write_outputs(outdir, program, m, sol, risk_json, results)
         if not quiet or sol.status != "satisfied":
             _summary(sol, outdir)

@@ -16,7 +16,26 @@ from __future__ import annotations
 
 import difflib
 import json
+import re
 from dataclasses import dataclass, field
+
+_LINE_END = re.compile(r"\r\n|\r|\n")
+
+
+def normalize_newlines(text: str) -> str:
+    """``\\r\\n`` and lone ``\\r`` → ``\\n`` (columns are unchanged)."""
+    return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
+
+
+def source_lines(text: str) -> list[str]:
+    """The lines of a source file as every pass numbers them: split at ``\\n``, ``\\r\\n``
+    and a lone ``\\r`` only (not at ``\\f``, ``\\v``, U+2028 … as ``str.splitlines`` does).
+    A final line end does not start another line."""
+    lines = _LINE_END.split(text)
+    if lines and lines[-1] == "" and len(lines) > 1:
+        lines.pop()
+    return lines if text else []
+
 
 #: every code the tool can emit, with a one-line description (README lists these)
 CODES: dict[str, str] = {
@@ -66,6 +85,8 @@ CODES: dict[str, str] = {
     "STL602": "malformed trace",
     "STL603": "trace is missing a signal",
     "STL604": "trace time column is not uniform",
+    # output files
+    "STL605": "cannot write the output directory",
 }
 
 
@@ -164,29 +185,51 @@ class Collector:
             raise StlcError(self.diagnostics)
 
 
+MAX_SUGGEST_LEN = 64  # names longer than this get no suggestion
+
+
 def did_you_mean(name: str, candidates) -> str | None:
-    """A "did you mean `x`?" hint by edit distance (Elm's nearbyNames)."""
-    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
+    """A "did you mean `x`?" hint by edit distance (Elm's nearbyNames).
+
+    Linear in the number of candidates with a small constant: a candidate whose length alone
+    rules out a similarity ratio of 0.6 (``2·min/(a+b) < 0.6``) is skipped before any
+    ``SequenceMatcher`` work, and very long names get no suggestion."""
+    if not name or len(name) > MAX_SUGGEST_LEN:
+        return None
+    n = len(name)
+    cands = [c for c in candidates if isinstance(c, str) and len(c) <= MAX_SUGGEST_LEN]
+    near = [c for c in cands if 2 * min(n, len(c)) >= 0.6 * (n + len(c))]
+    close = difflib.get_close_matches(name, near, n=1, cutoff=0.6)
     if not close:
-        low = {c.lower(): c for c in candidates}
-        if name.lower() in low:
-            close = [low[name.lower()]]
+        low = name.lower()
+        close = [c for c in cands if c.lower() == low][:1]
     return f"did you mean `{close[0]}`?" if close else None
 
 
 MAX_SHOWN_LINE = 200
 
 
-def render(d: Diagnostic, sources: dict[str, str] | None = None) -> str:
-    """Render one diagnostic like rustc/ruff; ``sources`` maps file name to its text."""
+def _shown(line: str) -> str:
+    """A source line as printed: tabs and other control characters become one column each
+    (so carets stay aligned and no escape sequence reaches the terminal)."""
+    return "".join(c if c.isprintable() else " " if c == "\t" else "\ufffd" for c in line)
+
+
+def render(d: Diagnostic, sources: dict[str, str] | None = None,
+           _lines: dict[str, list[str]] | None = None) -> str:
+    """Render one diagnostic like rustc/ruff; ``sources`` maps file name to its text
+    (``_lines`` caches their split lines across the diagnostics of ``render_all``)."""
     s = d.span
     head = f"{s.file or '<input>'}:{s.line}:{s.col}: {d.severity}[{d.code}]: {d.message}"
     lines = [head]
     text = (sources or {}).get(s.file)
     if text is not None and s.known:
-        src_lines = text.splitlines()
+        cache = {} if _lines is None else _lines
+        src_lines = cache.get(s.file)
+        if src_lines is None:
+            src_lines = cache[s.file] = source_lines(text)
         if 0 < s.line <= len(src_lines):
-            src = src_lines[s.line - 1].expandtabs(1)
+            src = _shown(src_lines[s.line - 1])
             col0 = s.col - 1
             width = (s.end_col - s.col) if s.end_line == s.line else len(src) - col0
             width = max(1, width)
@@ -208,7 +251,8 @@ def render(d: Diagnostic, sources: dict[str, str] | None = None) -> str:
 
 
 def render_all(diags: list[Diagnostic], sources: dict[str, str] | None = None) -> str:
-    return "\n\n".join(render(d, sources) for d in diags)
+    cache: dict[str, list[str]] = {}
+    return "\n\n".join(render(d, sources, cache) for d in diags)
 
 
 def to_json(diags: list[Diagnostic]) -> str:
