@@ -2,13 +2,14 @@
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan (report still
-written), 130 interrupted by Ctrl-C (nothing written).  Bad input never shows a Python traceback; an internal error prints one line
+written), 130 interrupted by Ctrl-C (nothing written), 141 the reader of stdout went away.  Bad input never shows a Python traceback; an internal error prints one line
 (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
@@ -17,7 +18,7 @@ import traceback
 from stlc.diagnostics import StlcError, render_all, to_json
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
-EXIT_INTERRUPTED = 130  # Ctrl-C: stopped at once, outputs of earlier runs left as they were
+EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141  # Ctrl-C: stopped at once, outputs of earlier runs left as they were
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -66,7 +67,15 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INPUT
     except KeyboardInterrupt:
         print("stlc: interrupted", file=sys.stderr)
+        if interrupt.abandoned():  # the solver did not stop in time: leave without finalising
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(EXIT_INTERRUPTED)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `stlc monitor ... | head`: the reader left; nothing to say
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except Exception as e:  # noqa: BLE001 - the last line of defence
         if os.environ.get("STLC_DEBUG"):
             traceback.print_exc()

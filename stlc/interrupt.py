@@ -30,7 +30,14 @@ GRACE_S = 1.5
 
 _requested = threading.Event()
 _lock = threading.Lock()
-_state = {"worker": None, "deferring": 0, "pending": False}
+_state = {"worker": None, "deferring": 0, "pending": False, "abandoned": False}
+
+
+def abandoned() -> bool:
+    """Did the last ``run`` return while its worker was still running (in C code)?  Then the
+    process must end with ``os._exit``: finalising the interpreter would kill the worker
+    inside C++ code, which aborts."""
+    return bool(_state["abandoned"])
 
 
 def requested() -> bool:
@@ -87,14 +94,18 @@ def run(fn: Callable[[], T]) -> T:
     if threading.current_thread() is not threading.main_thread() or _state["worker"]:
         return fn()  # nested use (tests, the fuzzer's own workers): no extra thread
     box: dict[str, object] = {}
+    done = threading.Event()
 
     def target() -> None:
         try:
             box["value"] = fn()
         except BaseException as e:  # noqa: BLE001 - handed to the main thread
             box["error"] = e
+        finally:
+            done.set()
 
     _requested.clear()
+    _state["abandoned"] = False
     old_stack = threading.stack_size()
     try:
         threading.stack_size(STACK_BYTES)
@@ -109,16 +120,19 @@ def run(fn: Callable[[], T]) -> T:
         worker.start()
         with _lock:
             _state["worker"] = worker.ident
+        # not ``worker.join()``: in Python 3.11 a join interrupted by Ctrl-C marks the
+        # still running thread as stopped (bpo-45274's fix); an Event is safe to interrupt
         try:
-            worker.join()
+            done.wait()
         except KeyboardInterrupt:
             request()
             try:
-                worker.join(GRACE_S)
-                while worker.is_alive() and _deferring():
-                    worker.join(0.05)
+                done.wait(GRACE_S)
+                while not done.is_set() and _deferring():
+                    done.wait(0.05)
             except KeyboardInterrupt:
                 pass  # a second Ctrl-C: stop waiting
+            _state["abandoned"] = not done.is_set()
             raise KeyboardInterrupt from None
     finally:
         with _lock:
