@@ -186,23 +186,55 @@ class Collector:
 
 
 MAX_SUGGEST_LEN = 64  # names longer than this get no suggestion
+MAX_COMPARED = 500  # candidates compared per suggestion, the closest in length first
+
+
+class _Index:
+    """Candidate names by length and by lower-case spelling, for one set of names.  Kept
+    between calls and extended when the next set is a superset (a checker's scope grows by
+    one name per declaration): a file with thousands of errors then costs linear time."""
+
+    def __init__(self) -> None:
+        self.names: frozenset = frozenset()
+        self.by_len: dict[int, list[str]] = {}
+        self.lower: dict[str, str] = {}
+
+    def update(self, cands: frozenset) -> None:
+        if cands == self.names:
+            return
+        if not self.names <= cands:
+            self.__init__()
+        for c in sorted(cands - self.names, key=str):
+            if isinstance(c, str) and len(c) <= MAX_SUGGEST_LEN:
+                self.by_len.setdefault(len(c), []).append(c)
+                self.lower.setdefault(c.lower(), c)
+        self.names = cands
+
+
+_INDEX = _Index()
 
 
 def did_you_mean(name: str, candidates) -> str | None:
     """A "did you mean `x`?" hint by edit distance (Elm's nearbyNames).
 
-    Linear in the number of candidates with a small constant: a candidate whose length alone
-    rules out a similarity ratio of 0.6 (``2·min/(a+b) < 0.6``) is skipped before any
-    ``SequenceMatcher`` work, and very long names get no suggestion."""
+    Bounded work per call: only candidates whose length allows a similarity ratio of 0.6
+    (``2·min/(a+b) >= 0.6``) are compared, at most ``MAX_COMPARED`` of them, closest in
+    length first; very long names get no suggestion."""
     if not name or len(name) > MAX_SUGGEST_LEN:
         return None
+    _INDEX.update(candidates if isinstance(candidates, frozenset) else frozenset(candidates))
+    by_len, lower = _INDEX.by_len, _INDEX.lower
     n = len(name)
-    cands = [c for c in candidates if isinstance(c, str) and len(c) <= MAX_SUGGEST_LEN]
-    near = [c for c in cands if 2 * min(n, len(c)) >= 0.6 * (n + len(c))]
-    close = difflib.get_close_matches(name, near, n=1, cutoff=0.6)
-    if not close:
-        low = name.lower()
-        close = [c for c in cands if c.lower() == low][:1]
+    near: list[str] = []
+    for d in range(0, MAX_SUGGEST_LEN + 1):
+        for m in {n - d, n + d}:
+            if m > 0 and 2 * min(n, m) >= 0.6 * (n + m):
+                near.extend(by_len.get(m, ()))
+        if len(near) >= MAX_COMPARED or 2 * max(n - d, 0) < 0.6 * (2 * n - d) and d > n:
+            break
+    close = difflib.get_close_matches(name, near[:MAX_COMPARED], n=1, cutoff=0.6)
+    if not close and name.lower() in lower:
+        close = [lower[name.lower()]]
     return f"did you mean `{close[0]}`?" if close else None
 
 
