@@ -197,6 +197,7 @@ class _Index:
     def __init__(self) -> None:
         self.names: frozenset = frozenset()
         self.by_len: dict[int, list[str]] = {}
+        self.by_first: dict[tuple[int, str], list[str]] = {}  # (length, first letter)
         self.lower: dict[str, str] = {}
 
     def update(self, cands: frozenset) -> None:
@@ -207,6 +208,7 @@ class _Index:
         for c in sorted(cands - self.names, key=str):
             if isinstance(c, str) and len(c) <= MAX_SUGGEST_LEN:
                 self.by_len.setdefault(len(c), []).append(c)
+                self.by_first.setdefault((len(c), c[:1].lower()), []).append(c)
                 self.lower.setdefault(c.lower(), c)
         self.names = cands
 
@@ -219,20 +221,26 @@ def did_you_mean(name: str, candidates) -> str | None:
 
     Bounded work per call: only candidates whose length allows a similarity ratio of 0.6
     (``2·min/(a+b) >= 0.6``) are compared, at most ``MAX_COMPARED`` of them, closest in
-    length first; very long names get no suggestion."""
+    length and with the same first letter first; very long names get no suggestion."""
     if not name or len(name) > MAX_SUGGEST_LEN:
         return None
     _INDEX.update(candidates if isinstance(candidates, frozenset) else frozenset(candidates))
-    by_len, lower = _INDEX.by_len, _INDEX.lower
     n = len(name)
+    lengths = sorted((m for m in range(1, MAX_SUGGEST_LEN + 1)
+                      if 2 * min(n, m) >= 0.6 * (n + m)), key=lambda m: abs(m - n))
     near: list[str] = []
-    for d in range(0, MAX_SUGGEST_LEN + 1):
-        for m in {n - d, n + d}:
-            if m > 0 and 2 * min(n, m) >= 0.6 * (n + m):
-                near.extend(by_len.get(m, ()))
-        if len(near) >= MAX_COMPARED or 2 * max(n - d, 0) < 0.6 * (2 * n - d) and d > n:
-            break
-    close = difflib.get_close_matches(name, near[:MAX_COMPARED], n=1, cutoff=0.6)
+    seen: set[str] = set()
+    first = name[:1].lower()  # names with the same first letter first, then the others
+    for bucket in [_INDEX.by_first.get((m, first), ()) for m in lengths] + \
+            [_INDEX.by_len.get(m, ()) for m in lengths]:
+        for c in bucket:
+            if len(near) >= MAX_COMPARED:
+                break
+            if c not in seen:
+                seen.add(c)
+                near.append(c)
+    lower = _INDEX.lower
+    close = difflib.get_close_matches(name, near, n=1, cutoff=0.6)
     if not close and name.lower() in lower:
         close = [lower[name.lower()]]
     return f"did you mean `{close[0]}`?" if close else None
