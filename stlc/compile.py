@@ -273,7 +273,10 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     from stlc.outputs import preflight
 
     for m in missions:  # before any solve: can the outputs be written at all?
-        preflight(outdirs[m.name], m.span if m.span.known else Span(path, 1, 1, 1, 2))
+        span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
+        if out == "":  # not "the current directory" (nor `-o ""` + mission name)
+            preflight(out, span)
+        preflight(outdirs[m.name], span)
     code = EXIT_OK
     for m in missions:
         t1 = time.perf_counter()

@@ -104,8 +104,9 @@ def test_unusable_output_directory_is_stl605_before_solving(two, tmp_path, case,
               "owned_is_dir": str(tmp_path / "o"), "proc": "/proc/stlc-cannot-create"}[case]
     if case == "owned_is_dir":
         (tmp_path / "o" / "report.html").mkdir(parents=True)
+    one = ["--mission", "east"] if case == "owned_is_dir" else []  # else DIR/<mission>/
     t0 = time.process_time()
-    rc = main(["compile", str(two), "-o", target, "-q"])
+    rc = main(["compile", str(two), *one, "-o", target, "-q"])
     err = capsys.readouterr().err
     assert rc == 1 and "error[STL605]" in err
     assert f"{two}:" in err.splitlines()[0]  # located at the mission in the file
