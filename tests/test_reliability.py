@@ -231,3 +231,20 @@ def test_check_of_a_missing_file_prints_a_location(tmp_path):
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 1
     assert f"{tmp_path / 'nope.stl'}:1:1: error[STL601]" in r.stderr
+
+
+@pytest.mark.parametrize("nl", ["\n", "\r\n", "\r"])
+def test_trace_line_numbers_follow_the_same_line_ends(tmp_path, nl):
+    from stlc.trace import read_trace
+
+    p = tmp_path / "t.csv"
+    p.write_bytes(nl.join(["t,x", "0,1", "0.1,oops", ""]).encode())
+    with pytest.raises(StlcError) as e:
+        read_trace(p)
+    d = e.value.diagnostics[0]
+    assert (d.code, d.span.line, d.span.col) == ("STL602", 3, 5)
+    p.write_bytes(nl.join(["t,x", "0,1", "0.1,\xff"]).encode("latin-1"))
+    with pytest.raises(StlcError) as e:
+        read_trace(p)
+    d = e.value.diagnostics[0]
+    assert (d.code, d.span.line, d.span.col) == ("STL601", 3, 5)
