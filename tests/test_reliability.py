@@ -248,3 +248,30 @@ def test_trace_line_numbers_follow_the_same_line_ends(tmp_path, nl):
         read_trace(p)
     d = e.value.diagnostics[0]
     assert (d.code, d.span.line, d.span.col) == ("STL601", 3, 5)
+
+
+@pytest.mark.parametrize("kind", ["and", "temporal", "dag"])
+def test_long_spec_chains_monitor_in_linear_time(tmp_path, capsys, kind):
+    n = 3000 if kind != "dag" else 200
+    lines = ["signal x", "spec s0 = always[0, 1] (x > 0)"]
+    body = {"and": "s{p} and x > -{i}", "temporal": "eventually[0, 0.1] s{p}",
+            "dag": "s{p} and not s{p}"}[kind]
+    lines += [f"spec s{i} = " + body.format(p=i - 1, i=i) for i in range(1, n)]
+    stl = tmp_path / "c.stl"
+    stl.write_text("\n".join(lines) + "\n")
+    csv = tmp_path / "t.csv"
+    csv.write_text("t,x\n" + "".join(f"{k / 10:g},{1 + k}\n" for k in range(20)))
+    t0 = time.process_time()
+    rc, out, err = run_cli(["monitor", str(stl), "--trace", str(csv), "--json"], capsys)
+    assert rc == 0, err
+    assert time.process_time() - t0 < 15  # was > 120 s for the `and` chain (cubic)
+    specs = strict_json(out)["specs"]
+    # and: every s_i is min(s0, x(0) + i) = 1, as s0 = min of x over [0, 1] s = x(0) = 1
+    if kind == "and":
+        assert {v["robustness"] for v in specs.values()} == {1.0}
+    elif kind == "temporal":
+        # s0(k) = min over samples k..k+10 (clipped) of 1 + j = 1 + k; s_i(0) = max over
+        # k <= i of s0(k) = 1 + min(i, 19)
+        assert specs["s5"]["robustness"] == 6.0 and specs["s2999"]["robustness"] == 20.0
+    else:  # s_i = min(s_{i-1}, -s_{i-1}) = -|s_{i-1}|: s0 = 1, then -1 forever
+        assert specs["s0"]["robustness"] == 1.0 and specs["s199"]["robustness"] == -1.0

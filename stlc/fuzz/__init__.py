@@ -11,7 +11,8 @@ Inputs come in five kinds, each made from a seed (so every failure can be replay
 * ``mutation`` — every shipped spec (``specs/``, ``tests/missions/``, ``tests/diagnostics/``)
   with lines deleted, duplicated or swapped, tokens and odd bytes (CR, FF, VT, U+2028, NUL,
   invalid UTF-8, a BOM, ``#`` runs) inserted, numbers replaced by extreme ones;
-* ``deep``     — deep bracket / ``not`` nesting and long chains of named specs;
+* ``deep``     — deep bracket / ``not`` nesting, long chains of named specs and specs that
+  use the previous one twice (exponential as a tree), half of them monitored on a trace;
 * ``trace``    — ``stlc monitor`` on a generated file with a damaged trace (tiny, huge,
   non-uniform or non-finite times and values, missing columns, odd line ends);
 * ``example``  — ``stlc monitor`` of ``specs/monitor_example.stl`` on a damaged copy of its
@@ -163,7 +164,7 @@ def mutate(text: str, rng: random.Random) -> str | bytes:
 
 def gen_deep(rng: random.Random) -> str:
     n = rng.choice([50, 99, 101, 150, 500, 1000, 3000])
-    k = rng.randrange(5)
+    k = rng.randrange(7)
     if k == 0:
         return f"signal x\nspec s = {'(' * n}x > 0{')' * n}\n"
     if k == 1:
@@ -173,7 +174,12 @@ def gen_deep(rng: random.Random) -> str:
     if k == 3:
         return "signal x\nspec s = x > 0" + " + 1" * n + "\n"
     lines = ["signal x", "spec s0 = always[0, 1] (x > 0)"]
-    lines += [f"spec s{i} = s{i - 1} and x > {-i}" for i in range(1, n)]
+    if k == 4:  # a chain of named specs
+        lines += [f"spec s{i} = s{i - 1} and x > {-i}" for i in range(1, n)]
+    elif k == 5:  # a chain of temporal operators over named specs
+        lines += [f"spec s{i} = eventually[0, 0.1] s{i - 1}" for i in range(1, n)]
+    else:  # each spec uses the previous one twice: a DAG of exponential tree size
+        lines += [f"spec s{i} = s{i - 1} and not s{i - 1}" for i in range(1, min(n, 200))]
     return "\n".join(lines) + "\n"
 
 
@@ -220,8 +226,9 @@ def make_input(kind: str, seed: int, seeds: list[str]) -> dict:
         stl = gen_source(rng)
     elif kind == "mutation" and seeds:
         stl = mutate(Path(seeds[seed % len(seeds)]).read_text(encoding="utf-8"), rng)
-    elif kind == "deep":
+    elif kind == "deep":  # half of them also monitored (IR walks, memo tables)
         stl = gen_deep(rng)
+        trace = gen_trace(random.Random(seed), ("x",)) if seed % 2 else None
     elif kind == "trace":
         stl = gen_source(rng) if rng.random() < 0.5 else "signal x, y, z\nspec a = always[0, " \
             f"{_time(rng)}] (x <= {_num(rng)})\nspec b = not a\n"
