@@ -2,8 +2,12 @@
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan (report still
-written), 130 interrupted by Ctrl-C (nothing written), 141 the reader of stdout went away.  Bad input never shows a Python traceback; an internal error prints one line
-(set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+written), 130 interrupted by Ctrl-C (nothing written, earlier outputs left as they were),
+141 the reader of stdout went away.  Bad input never shows a Python traceback; an internal
+error prints one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+
+Every command runs in a worker thread with a large stack (``stlc.interrupt.run``): deep
+formulas recurse safely and Ctrl-C stops a running solve at once.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ import traceback
 from stlc.diagnostics import StlcError, render_all, to_json
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
-EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141  # Ctrl-C: stopped at once, outputs of earlier runs left as they were
+EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
 
 
 def _parser() -> argparse.ArgumentParser:

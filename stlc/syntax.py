@@ -23,6 +23,7 @@ from stlc import ast
 from stlc.diagnostics import Diagnostic, Span, StlcError, normalize_newlines, source_lines
 
 MAX_DEPTH = 100  # bracket nesting
+MAX_TREE_DEPTH = 200  # parse-tree nesting (`not not …`, `a ^ b ^ …`, long `+` chains)
 MAX_LINE = 10_000  # characters per line
 
 # possessive (no backtracking): a run of `#` characters can be split into comments in
@@ -417,6 +418,17 @@ def _deepest_member(tree) -> Token | Tree | None:
     return best
 
 
+def _tree_depth(tree) -> int:
+    """Depth of a parse tree (iteratively)."""
+    best, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        if isinstance(node, Tree):
+            best = max(best, d)
+            stack.extend((c, d + 1) for c in node.children)
+    return best
+
+
 def _too_deep(file: str, tree) -> Diagnostic:
     member = _deepest_member(tree) if tree is not None else None
     meta = getattr(member, "meta", None)
@@ -464,6 +476,8 @@ def parse(text: str, file: str = "<input>") -> ast.File:
         parser = _parser()
         _POSTLEX.text = text
         tree = parser.parse(text)
+        if _tree_depth(tree) > MAX_TREE_DEPTH:  # an explicit limit, not the recursion limit
+            raise StlcError([_too_deep(file, tree)])
         members = _Builder(file).transform(tree)
     except _DepthError as e:
         t = e.token

@@ -10,8 +10,9 @@ exception — with
 * STL604 ``t`` is not increasing or not uniform (steps may differ from their median by 1%,
   so times printed with few digits are accepted);
 
-each with a span at the offending line and column and a hint.  Lines end at ``\\n``, ``\\r\\n`` or ``\\r``
-(as in ``.stl`` files; not at ``\\f``, ``\\v``, U+2028 …).  Blank lines are skipped,
+each with a span at the offending line and column and a hint.  Lines end at ``\\n``,
+``\\r\\n`` or ``\\r`` (as in ``.stl`` files; not at ``\\f``, ``\\v``, U+2028 …).  Blank lines
+are skipped,
 a UTF-8 byte-order mark is ignored, names and values may be padded with spaces and names
 may be double-quoted.  ``check_signals`` reports STL603 for columns a formula needs.
 

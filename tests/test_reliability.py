@@ -65,8 +65,8 @@ def test_thousands_of_errors_take_linear_time(tmp_path):
         p.write_text("signal x\n" + "".join(f"spec s{i} = undefined_{i} > 0\n"
                                             for i in range(n)))
         t0 = time.process_time()
-        from stlc.pipeline import check_paths
         from stlc.diagnostics import render_all
+        from stlc.pipeline import check_paths
 
         diags, sources = check_paths([str(p)])
         render_all(diags, sources)
