@@ -2,14 +2,19 @@
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan (report still
-written).  Bad input never shows a Python traceback; an internal error prints one line
-(set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+written), 130 interrupted by Ctrl-C (nothing written, earlier outputs left as they were),
+141 the reader of stdout went away.  Bad input never shows a Python traceback; an internal
+error prints one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+
+Every command runs in a worker thread with a large stack (``stlc.interrupt.run``): deep
+formulas recurse safely and Ctrl-C stops a running solve at once.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
+import math
 import os
 import sys
 import traceback
@@ -17,6 +22,7 @@ import traceback
 from stlc.diagnostics import StlcError, render_all, to_json
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
+EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -52,16 +58,28 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from stlc import interrupt
+
     args = _parser().parse_args(argv)
+    cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
+           "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
     try:
-        return {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
-                "risk": cmd_risk, "bench": cmd_bench}[args.cmd](args)
+        # a big-stack worker thread: deep formulas recurse safely, Ctrl-C stops at once
+        return interrupt.run(lambda: cmd(args))
     except StlcError as e:
         _print_diags(e, None)
         return EXIT_INPUT
     except KeyboardInterrupt:
         print("stlc: interrupted", file=sys.stderr)
-        return 130
+        if interrupt.abandoned():  # the solver did not stop in time: leave without finalising
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(EXIT_INTERRUPTED)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `stlc monitor ... | head`: the reader left; nothing to say
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except Exception as e:  # noqa: BLE001 - the last line of defence
         if os.environ.get("STLC_DEBUG"):
             traceback.print_exc()
@@ -78,7 +96,7 @@ def _sources(diags) -> dict[str, str]:
         if f and f not in out:
             try:
                 with open(f, encoding="utf-8", errors="replace") as fh:
-                    out[f] = fh.read()
+                    out[f] = fh.read().removeprefix("\ufeff")
             except OSError:
                 pass
     return out
@@ -112,13 +130,19 @@ def cmd_monitor(args) -> int:
     program = load(args.file).program
     trace = read_trace(args.trace)
     res = monitor_trace(program, trace)
-    if args.json:
-        print(json.dumps({"specs": res}))
+    for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
+        if math.isnan(v["robustness"]):
+            v["satisfied"] = None
+    if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
+        from stlc.solution import strict_dumps
+
+        print(strict_dumps({"specs": res}))
     else:
         width = max((len(k) for k in res), default=4)
         print(f"{'spec':<{width}}  {'robustness':>12}  satisfied")
         for k, v in res.items():
-            print(f"{k:<{width}}  {v['robustness']:>12.6g}  {'yes' if v['satisfied'] else 'no'}")
+            sat = {True: "yes", False: "no", None: "undefined"}[v["satisfied"]]
+            print(f"{k:<{width}}  {v['robustness']:>12.6g}  {sat}")
     return EXIT_OK
 
 

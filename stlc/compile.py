@@ -2,17 +2,16 @@
 (+ ``risk.json``, ``risk_samples.npz``) of one verified ``Solution``, and the summary line.
 
 The pipeline (``stlc.pipeline.compile_file``) orders the passes and calls this last, once
-everything the outputs contain exists.  Outputs of a mission are written into a temporary
-directory that is renamed into place, so nothing is left half-written.
+everything the outputs contain exists.  ``stlc.outputs`` writes them: only stlc's own files,
+each replaced atomically, as one set under a lock on the directory (checked before any
+solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 import sys
-import tempfile
 
 from stlc import model
 from stlc.solution import Solution
@@ -25,32 +24,32 @@ EXIT_OK, EXIT_UNSAT = 0, 3
 
 def write_outputs(outdir: str, program: model.Program, mission: model.Mission, sol: Solution
                   ) -> None:
-    """Write every output of one mission atomically (temp dir, then rename)."""
+    """Write every output of one mission into ``outdir`` (see ``stlc.outputs``)."""
+    from stlc.outputs import staged
     from stlc.report import write_report
 
-    parent = os.path.dirname(os.path.abspath(outdir)) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".stlc-", dir=parent)
-    os.chmod(tmp, 0o755)  # mkdtemp makes it private; outputs are ordinary files to share
-    try:
+    with staged(outdir, mission.span) as tmp:
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
             fh.write(sol.to_json())
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(sol.trajectory_csv())
+        if sol.routes:
+            from stlc.backends.team_backend import solution_plan
+            from stlc.team.refine import per_drone_csv
+
+            for drone, text in per_drone_csv(solution_plan(sol)).items():
+                with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
+                    fh.write(text)
         if sol.risk is not None:
+            from stlc.solution import strict
+
             with open(os.path.join(tmp, "risk.json"), "w") as fh:
-                json.dump(sol.risk, fh, indent=2, allow_nan=False)
+                json.dump(strict(sol.risk), fh, indent=2, allow_nan=False)
             if sol.risk_results is not None:
                 from stlc.risk import save_samples
 
                 save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
         write_report(os.path.join(tmp, "report.html"), program, mission, sol)
-        if os.path.isdir(outdir):
-            shutil.rmtree(outdir)
-        os.replace(tmp, outdir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def summary(sol: Solution, outdir: str) -> None:

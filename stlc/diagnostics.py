@@ -16,7 +16,26 @@ from __future__ import annotations
 
 import difflib
 import json
+import re
 from dataclasses import dataclass, field
+
+_LINE_END = re.compile(r"\r\n|\r|\n")
+
+
+def normalize_newlines(text: str) -> str:
+    """``\\r\\n`` and lone ``\\r`` → ``\\n`` (columns are unchanged)."""
+    return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
+
+
+def source_lines(text: str) -> list[str]:
+    """The lines of a source file as every pass numbers them: split at ``\\n``, ``\\r\\n``
+    and a lone ``\\r`` only (not at ``\\f``, ``\\v``, U+2028 … as ``str.splitlines`` does).
+    A final line end does not start another line."""
+    lines = _LINE_END.split(text)
+    if lines and lines[-1] == "" and len(lines) > 1:
+        lines.pop()
+    return lines if text else []
+
 
 #: every code the tool can emit, with a one-line description (README lists these)
 CODES: dict[str, str] = {
@@ -67,6 +86,8 @@ CODES: dict[str, str] = {
     "STL602": "malformed trace",
     "STL603": "trace is missing a signal",
     "STL604": "trace time column is not uniform",
+    # output files
+    "STL605": "cannot write the output directory",
 }
 
 
@@ -165,29 +186,91 @@ class Collector:
             raise StlcError(self.diagnostics)
 
 
+MAX_SUGGEST_LEN = 64  # names longer than this get no suggestion
+MAX_COMPARED = 500  # candidates compared per suggestion, the closest in length first
+
+
+class _Index:
+    """Candidate names by length and by lower-case spelling, for one set of names.  Kept
+    between calls and extended when the next set is a superset (a checker's scope grows by
+    one name per declaration): a file with thousands of errors then costs linear time."""
+
+    def __init__(self) -> None:
+        self.names: frozenset = frozenset()
+        self.by_len: dict[int, list[str]] = {}
+        self.by_first: dict[tuple[int, str], list[str]] = {}  # (length, first letter)
+        self.lower: dict[str, str] = {}
+
+    def update(self, cands: frozenset) -> None:
+        if cands == self.names:
+            return
+        if not self.names <= cands:
+            self.__init__()
+        for c in sorted(cands - self.names, key=str):
+            if isinstance(c, str) and len(c) <= MAX_SUGGEST_LEN:
+                self.by_len.setdefault(len(c), []).append(c)
+                self.by_first.setdefault((len(c), c[:1].lower()), []).append(c)
+                self.lower.setdefault(c.lower(), c)
+        self.names = cands
+
+
+_INDEX = _Index()
+
+
 def did_you_mean(name: str, candidates) -> str | None:
-    """A "did you mean `x`?" hint by edit distance (Elm's nearbyNames)."""
-    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
-    if not close:
-        low = {c.lower(): c for c in candidates}
-        if name.lower() in low:
-            close = [low[name.lower()]]
+    """A "did you mean `x`?" hint by edit distance (Elm's nearbyNames).
+
+    Bounded work per call: only candidates whose length allows a similarity ratio of 0.6
+    (``2·min/(a+b) >= 0.6``) are compared, at most ``MAX_COMPARED`` of them, closest in
+    length and with the same first letter first; very long names get no suggestion."""
+    if not name or len(name) > MAX_SUGGEST_LEN:
+        return None
+    _INDEX.update(candidates if isinstance(candidates, frozenset) else frozenset(candidates))
+    n = len(name)
+    lengths = sorted((m for m in range(1, MAX_SUGGEST_LEN + 1)
+                      if 2 * min(n, m) >= 0.6 * (n + m)), key=lambda m: abs(m - n))
+    near: list[str] = []
+    seen: set[str] = set()
+    first = name[:1].lower()  # names with the same first letter first, then the others
+    for bucket in [_INDEX.by_first.get((m, first), ()) for m in lengths] + \
+            [_INDEX.by_len.get(m, ()) for m in lengths]:
+        for c in bucket:
+            if len(near) >= MAX_COMPARED:
+                break
+            if c not in seen:
+                seen.add(c)
+                near.append(c)
+    lower = _INDEX.lower
+    close = difflib.get_close_matches(name, near, n=1, cutoff=0.6)
+    if not close and name.lower() in lower:
+        close = [lower[name.lower()]]
     return f"did you mean `{close[0]}`?" if close else None
 
 
 MAX_SHOWN_LINE = 200
 
 
-def render(d: Diagnostic, sources: dict[str, str] | None = None) -> str:
-    """Render one diagnostic like rustc/ruff; ``sources`` maps file name to its text."""
+def _shown(line: str) -> str:
+    """A source line as printed: tabs and other control characters become one column each
+    (so carets stay aligned and no escape sequence reaches the terminal)."""
+    return "".join(c if c.isprintable() else " " if c == "\t" else "\ufffd" for c in line)
+
+
+def render(d: Diagnostic, sources: dict[str, str] | None = None,
+           _lines: dict[str, list[str]] | None = None) -> str:
+    """Render one diagnostic like rustc/ruff; ``sources`` maps file name to its text
+    (``_lines`` caches their split lines across the diagnostics of ``render_all``)."""
     s = d.span
     head = f"{s.file or '<input>'}:{s.line}:{s.col}: {d.severity}[{d.code}]: {d.message}"
     lines = [head]
     text = (sources or {}).get(s.file)
     if text is not None and s.known:
-        src_lines = text.splitlines()
+        cache = {} if _lines is None else _lines
+        src_lines = cache.get(s.file)
+        if src_lines is None:
+            src_lines = cache[s.file] = source_lines(text)
         if 0 < s.line <= len(src_lines):
-            src = src_lines[s.line - 1].expandtabs(1)
+            src = _shown(src_lines[s.line - 1])
             col0 = s.col - 1
             width = (s.end_col - s.col) if s.end_line == s.line else len(src) - col0
             width = max(1, width)
@@ -209,7 +292,8 @@ def render(d: Diagnostic, sources: dict[str, str] | None = None) -> str:
 
 
 def render_all(diags: list[Diagnostic], sources: dict[str, str] | None = None) -> str:
-    return "\n\n".join(render(d, sources) for d in diags)
+    cache: dict[str, list[str]] = {}
+    return "\n\n".join(render(d, sources, cache) for d in diags)
 
 
 def to_json(diags: list[Diagnostic]) -> str:

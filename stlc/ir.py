@@ -27,6 +27,32 @@ from stlc.diagnostics import Span
 
 NO_SPAN = Span.none()
 
+
+def _hash(self) -> int:
+    """The structural hash, computed once per node: formulas are DAGs (a named spec used
+    twice is one object), and memo tables keyed by node would otherwise re-hash a whole
+    subtree per lookup (quadratic on a chain of hundreds of named specs)."""
+    h = self._h
+    if h == 0:
+        h = hash((type(self).__name__, *(getattr(self, f) for f in self._keys))) or 1
+        object.__setattr__(self, "_h", h)
+    return h
+
+
+def _reduce(self):
+    """Pickle without the cached hash (string hashes differ between processes)."""
+    return type(self), tuple(getattr(self, f) for f in self._init)
+
+
+def _cached_hash(cls):
+    from dataclasses import fields
+
+    cls._keys = tuple(f.name for f in fields(cls) if f.compare)
+    cls._init = tuple(f.name for f in fields(cls) if f.init)
+    cls.__hash__ = _hash
+    cls.__reduce__ = _reduce
+    return cls
+
 # --------------------------------------------------------------------------- expressions
 
 
@@ -45,11 +71,14 @@ class Param:
     name: str
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Neg:
     arg: Expr
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Bin:
     """Binary arithmetic; ``op`` is one of ``+ - * / ^``."""
@@ -57,6 +86,7 @@ class Bin:
     op: str
     left: Expr
     right: Expr
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
 #: unary functions allowed in ``Call``: abs sqrt sin cos exp log
@@ -65,10 +95,12 @@ CALLS_1 = ("abs", "sqrt", "sin", "cos", "exp", "log")
 CALLS_N = ("min", "max", "atan2", "angdiff")
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Call:
     fn: str
     args: tuple[Expr, ...]
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
 Expr = Const | Sig | Param | Neg | Bin | Call
@@ -94,6 +126,7 @@ class Bound:
                      self.expr, self.calls)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Pred:
     """Atomic predicate ``expr >= 0``; its robustness is the value of ``expr``.
@@ -107,6 +140,7 @@ class Pred:
     label: str = ""
     span: Span = field(default=NO_SPAN, compare=False)
     bound: Bound | None = field(default=None, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,31 +155,40 @@ class FalseF:
     span: Span = field(default=NO_SPAN, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Not:
     arg: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class And:
     args: tuple[Formula, ...]
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Or:
     args: tuple[Formula, ...]
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Implies:
     left: Formula
     right: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Always:
     """``always[lo, hi] arg``; bounds in seconds, ``hi`` may be ``math.inf``."""
@@ -154,16 +197,20 @@ class Always:
     hi: float
     arg: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Eventually:
     lo: float
     hi: float
     arg: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Until:
     """``left until[lo, hi] right``: max over k' in the window of
@@ -174,8 +221,10 @@ class Until:
     left: Formula
     right: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Release:
     """Dual of ``Until`` (only produced by ``normalize``):
@@ -187,12 +236,15 @@ class Release:
     left: Formula
     right: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
+@_cached_hash
 @dataclass(frozen=True, slots=True)
 class Next:
     arg: Formula
     span: Span = field(default=NO_SPAN, compare=False)
+    _h: int = field(default=0, init=False, repr=False, compare=False)
 
 
 Formula = (Pred | TrueF | FalseF | Not | And | Or | Implies | Always | Eventually | Until
@@ -221,11 +273,31 @@ def _negate_label(label: str) -> str:
 
 
 def normalize(f: Formula) -> Formula:
-    """Desugar ``implies``, push negations to predicates, flatten and/or."""
-    return _nnf(f, False)
+    """Desugar ``implies``, push negations to predicates, flatten and/or.
+
+    Linear in the size of the formula as a DAG: a subformula shared by reference (a named
+    spec used twice) is normalised once per polarity, so the result shares it too."""
+    return _nnf(f, False, {})
 
 
-def _nnf(f: Formula, neg: bool) -> Formula:
+def normalize_many(fs, flat_max: int | None = None) -> list[Formula]:
+    """``normalize`` of several formulas with one memo: what they share stays shared.
+    ``flat_max``: an ``And``/``Or`` child with more operands than this is kept nested, not
+    flattened (same exact robustness; a chain of n specs ``s_i = s_{i-1} and p_i`` is then
+    of size O(n), not O(n²)).  Smooth semantics depend on flattening: only for exact use."""
+    memo: dict = {"flat_max": flat_max}
+    return [_nnf(f, False, memo) for f in fs]
+
+
+def _nnf(f: Formula, neg: bool, memo: dict) -> Formula:
+    key = (id(f), neg)
+    hit = memo.get(key)
+    if hit is None:
+        hit = memo[key] = (f, _nnf_node(f, neg, memo))  # f kept alive: ids stay unique
+    return hit[1]
+
+
+def _nnf_node(f: Formula, neg: bool, memo: dict) -> Formula:
     match f:
         case Pred(expr, label, span, bound):
             if not neg:
@@ -237,32 +309,35 @@ def _nnf(f: Formula, neg: bool) -> Formula:
         case FalseF(span):
             return TrueF(span) if neg else f
         case Not(arg):
-            return _nnf(arg, not neg)
+            return _nnf(arg, not neg, memo)
         case Implies(a, b, span):
-            return _nnf(Or((Not(a), b), span), neg)
+            return _nnf(Or((Not(a), b), span), neg, memo)
         case And(args, span):
-            kids = tuple(_nnf(a, neg) for a in args)
-            return _flat(Or if neg else And, kids, span)
+            kids = tuple(_nnf(a, neg, memo) for a in args)
+            return _flat(Or if neg else And, kids, span, memo.get("flat_max"))
         case Or(args, span):
-            kids = tuple(_nnf(a, neg) for a in args)
-            return _flat(And if neg else Or, kids, span)
+            kids = tuple(_nnf(a, neg, memo) for a in args)
+            return _flat(And if neg else Or, kids, span, memo.get("flat_max"))
         case Always(lo, hi, arg, span):
-            return (Eventually if neg else Always)(lo, hi, _nnf(arg, neg), span)
+            return (Eventually if neg else Always)(lo, hi, _nnf(arg, neg, memo), span)
         case Eventually(lo, hi, arg, span):
-            return (Always if neg else Eventually)(lo, hi, _nnf(arg, neg), span)
+            return (Always if neg else Eventually)(lo, hi, _nnf(arg, neg, memo), span)
         case Until(lo, hi, a, b, span):
-            return (Release if neg else Until)(lo, hi, _nnf(a, neg), _nnf(b, neg), span)
+            return (Release if neg else Until)(lo, hi, _nnf(a, neg, memo), _nnf(b, neg, memo),
+                                               span)
         case Release(lo, hi, a, b, span):
-            return (Until if neg else Release)(lo, hi, _nnf(a, neg), _nnf(b, neg), span)
+            return (Until if neg else Release)(lo, hi, _nnf(a, neg, memo), _nnf(b, neg, memo),
+                                               span)
         case Next(arg, span):
-            return Next(_nnf(arg, neg), span)
+            return Next(_nnf(arg, neg, memo), span)
     raise TypeError(f"not a formula node: {f!r}")
 
 
-def _flat(cls: type, kids: tuple[Formula, ...], span: Span) -> Formula:
+def _flat(cls: type, kids: tuple[Formula, ...], span: Span,
+          flat_max: int | None = None) -> Formula:
     out: list[Formula] = []
     for k in kids:
-        if isinstance(k, cls):
+        if isinstance(k, cls) and (flat_max is None or len(k.args) <= flat_max):
             out.extend(k.args)
         else:
             out.append(k)
@@ -327,11 +402,20 @@ def expr_leaves(e: Expr) -> set[Expr]:
 
 
 def predicates(f: Formula) -> list[Pred]:
-    if isinstance(f, Pred):
-        return [f]
+    """Every predicate of ``f`` in depth-first order, each shared node visited once
+    (iterative: safe on chains of thousands of named specs, linear on DAGs)."""
     out: list[Pred] = []
-    for c in children(f):
-        out.extend(predicates(c))
+    seen: set[int] = set()
+    stack = [f]
+    while stack:
+        g = stack.pop()
+        if id(g) in seen:
+            continue
+        seen.add(id(g))
+        if isinstance(g, Pred):
+            out.append(g)
+        else:
+            stack.extend(reversed(children(g)))
     return out
 
 

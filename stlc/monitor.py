@@ -64,6 +64,7 @@ from stlc.ir import (
 from stlc.timegrid import steps_ceil, steps_floor
 
 INF = np.inf
+FLAT_MAX = 32  # robustness_many keeps larger and/or operands nested (exact min is associative)
 Channels = Mapping[str, np.ndarray]
 Params = Mapping[str, "float | np.ndarray"]
 
@@ -758,5 +759,5 @@ def robustness_many(formulas, dt: float, channels: Channels, params: Params | No
         if not channels:
             raise ValueError("no channels: pass the number of samples n")
         n = len(next(iter(channels.values())))
-    plan = Plan([ir.normalize(f) for f in formulas], dt, n)
+    plan = Plan(ir.normalize_many(formulas, flat_max=FLAT_MAX), dt, n)
     return Demand(plan, channels, params).values()

@@ -72,13 +72,14 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
     from stlc.trace import check_signals
 
     formulas = monitored_formulas(program)
-    needed: set[str] = set()
-    for f in formulas.values():
-        needed |= ir.signals(f)
-    check_signals(trace, needed)
+    # all at once: named specs share subformulas (a chain of hundreds of specs, each using
+    # the previous one, is evaluated in linear time and without recursion)
+    check_signals(trace, ir.signals(ir.And(tuple(formulas.values()))))
+    values = monitor.robustness_many(list(formulas.values()), trace.dt, trace.channels,
+                                     program.params, n=trace.n)
     out = {}
-    for name, f in formulas.items():
-        r = float(monitor.robustness(ir.normalize(f), trace.dt, trace.channels, program.params))
+    for name, v in zip(formulas, values):
+        r = float(v)
         out[name] = {"robustness": r, "satisfied": bool(r > 0)}
     return out
 
@@ -178,6 +179,16 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     program = loaded.program
     missions = select_missions(path, program, mission)
     several = len(missions) > 1
+    base = out if out is not None else "reports"
+    outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
+               for m in missions}
+    from stlc.outputs import preflight
+
+    for m in missions:  # before any solve: can the outputs be written at all?
+        span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
+        if out == "":  # not "the current directory" (nor `-o ""` + mission name)
+            preflight(out, span)
+        preflight(outdirs[m.name], span)
     code = outputs.EXIT_OK
     for m in missions:
         t1 = time.perf_counter()
@@ -186,8 +197,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if risk and m.risk is not None:
             assess_risk(program, m, sol)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
-        base = out if out is not None else "reports"
-        outdir = os.path.join(base, m.name) if (several or out is None) else base
+        outdir = outdirs[m.name]
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
@@ -224,17 +234,15 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
                                     f"{e}", m.span, "check the risk block's distributions")]
                         ) from None
     outdir = out or os.path.dirname(os.path.abspath(trajectory))
-    try:
-        os.makedirs(outdir, exist_ok=True)
-        target = os.path.join(outdir, "risk.json")
-        with open(target + ".tmp", "w") as fh:
-            json.dump(risk_json, fh, indent=2, allow_nan=False)
-        os.replace(target + ".tmp", target)
-        save_samples(os.path.join(outdir, "risk_samples.npz"), results)
-    except OSError as e:
-        raise StlcError([Diagnostic("STL601", f"cannot write the risk outputs to `{outdir}`: "
-                                    f"{e.strerror or e}", Span(path, 1, 1, 1, 2),
-                                    "pass a writable directory with -o DIR")]) from None
+    from stlc.outputs import staged
+    from stlc.solution import strict
+
+    target = os.path.join(outdir, "risk.json")
+    with staged(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2),
+                complete=False) as tmp:
+        with open(os.path.join(tmp, "risk.json"), "w") as fh:
+            json.dump(strict(risk_json), fh, indent=2, allow_nan=False)
+        save_samples(os.path.join(tmp, "risk_samples.npz"), results)
     print(risk_table(risk_json, trace.path))
     print(f"→ {target}")
     if trace.n > 1 and abs(trace.dt - m.step) > 1e-9 * m.step:

@@ -52,11 +52,11 @@ class Comparison:
     peak_rotor_speed: float | None = None
 
     def to_json_dict(self) -> dict:
-        return {"label": self.label, "energy": _num(self.energy),
-                "robustness_exact": _num(self.robustness_exact),
-                "specs": {k: _num(v) for k, v in self.specs.items()},
-                "peak_speed": _num(self.peak_speed),
-                "peak_rotor_speed": _num(self.peak_rotor_speed)}
+        return {"label": self.label, "energy": json_number(self.energy),
+                "robustness_exact": json_number(self.robustness_exact),
+                "specs": {k: json_number(v) for k, v in self.specs.items()},
+                "peak_speed": json_number(self.peak_speed),
+                "peak_rotor_speed": json_number(self.peak_rotor_speed)}
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,7 +103,7 @@ class Solution:
     events: list = field(default_factory=list)
 
     def to_json_dict(self) -> dict:
-        num = _num
+        num = json_number
         return {
             "mission": self.mission,
             "status": str(self.status),
@@ -127,7 +127,7 @@ class Solution:
         }
 
     def to_json(self) -> str:
-        return json.dumps(self.to_json_dict(), indent=2, default=_json_default)
+        return strict_dumps(self.to_json_dict(), indent=2)
 
     def trajectory_csv(self) -> str:
         buf = io.StringIO()
@@ -144,18 +144,43 @@ def _event(e) -> dict:
             "start": round(float(e.start), 6), "end": round(float(e.end), 6)}
 
 
-def _num(x) -> float | None:
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else (None if math.isnan(x) else
-                                       (1e308 if x > 0 else -1e308))
-
-
 def _peak(channels: dict[str, np.ndarray], key: str) -> float | None:
     """Largest value over the channels whose name contains ``key``."""
     vals = [float(np.max(v)) for k, v in channels.items() if key in k]
     return max(vals) if vals else None
+
+
+def json_number(x) -> float | str | None:
+    """A number as strict JSON (RFC 8259 has no NaN or Infinity): finite values as numbers,
+    +∞ and −∞ as the strings ``"inf"`` and ``"-inf"`` (``float()`` reads them back), an
+    undefined value (NaN) as ``null``."""
+    if x is None:
+        return None
+    x = float(x)
+    if math.isfinite(x):
+        return x
+    return None if math.isnan(x) else ("inf" if x > 0 else "-inf")
+
+
+def strict(o):
+    """``o`` with every float (also numpy scalars and arrays) made strict JSON by
+    ``json_number``; containers are copied, other values kept."""
+    if isinstance(o, dict):
+        return {k: strict(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [strict(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return strict(o.tolist())
+    if isinstance(o, np.generic):
+        o = o.item()
+    if isinstance(o, float):
+        return json_number(o)
+    return o
+
+
+def strict_dumps(o, **kw) -> str:
+    """``json.dumps`` that never writes NaN or Infinity (see ``json_number``)."""
+    return json.dumps(strict(o), allow_nan=False, default=_json_default, **kw)
 
 
 def _json_default(o):

@@ -17,15 +17,18 @@ from importlib import resources
 from pathlib import Path as FsPath
 
 from lark import Lark, Token, Transformer, Tree, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, VisitError
 
 from stlc import ast
-from stlc.diagnostics import Diagnostic, Span, StlcError
+from stlc.diagnostics import Diagnostic, Span, StlcError, normalize_newlines, source_lines
 
 MAX_DEPTH = 100  # bracket nesting
+MAX_TREE_DEPTH = 200  # parse-tree nesting (`not not …`, `a ^ b ^ …`, long `+` chains)
 MAX_LINE = 10_000  # characters per line
 
-CONTINUE_BEFORE = re.compile(r"(?:\s|#[^\n]*)*(?:and|or|implies|until)\b")
+# possessive (no backtracking): a run of `#` characters can be split into comments in
+# exponentially many ways, and the old `(?:\s|#[^\n]*)*` tried them all
+CONTINUE_BEFORE = re.compile(r"(?:\s++|#[^\n]*+)*+(?:and|or|implies|until)\b")
 CONTINUE_AFTER = {"AND", "OR", "IMPLIES", "UNTIL", "NOT", "ALWAYS", "EVENTUALLY", "NEXT",
                   "EQUAL", "COMMA", "COLON", "TILDE", "PLUS", "MINUS", "STAR", "SLASH",
                   "CIRCUMFLEX", "CMP", "IN", "LBRACE", "REQUIRE", "MINIMIZE", "MAXIMIZE"}
@@ -381,7 +384,7 @@ def _eof_diag(file: str, text: str, expected: str | None) -> Diagnostic:
     if last is not None and last.end_line:
         line, col = last.end_line, last.end_column
     else:
-        lines = text.splitlines() or [""]
+        lines = source_lines(text) or [""]
         line = max((i for i, s in enumerate(lines, 1) if s.strip()), default=1)
         col = len(lines[line - 1].rstrip()) + 1
     help_ = expected
@@ -412,6 +415,17 @@ def _deepest_member(tree) -> Token | Tree | None:
         if d > best_depth and member is not None:
             best, best_depth = member, d
         stack.extend((c, d + 1, member) for c in node.children)
+    return best
+
+
+def _tree_depth(tree) -> int:
+    """Depth of a parse tree (iteratively)."""
+    best, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        if isinstance(node, Tree):
+            best = max(best, d)
+            stack.extend((c, d + 1) for c in node.children)
     return best
 
 
@@ -446,8 +460,12 @@ def decode(data: bytes, file: str) -> str:
 
 
 def parse(text: str, file: str = "<input>") -> ast.File:
-    """Parse source text into an AST or raise ``StlcError`` with diagnostics."""
-    for i, line in enumerate(text.splitlines(), 1):
+    """Parse source text into an AST or raise ``StlcError`` with diagnostics.
+
+    Line ends are ``\\n``, ``\\r\\n`` or a lone ``\\r`` (``diagnostics.source_lines``, which the
+    renderer uses too); the text is normalised to ``\\n`` first, which keeps every column."""
+    text = normalize_newlines(text)
+    for i, line in enumerate(source_lines(text), 1):
         if len(line) > MAX_LINE:
             raise StlcError([Diagnostic(
                 "STL006", f"line is {len(line)} characters long (limit {MAX_LINE})",
@@ -458,6 +476,8 @@ def parse(text: str, file: str = "<input>") -> ast.File:
         parser = _parser()
         _POSTLEX.text = text
         tree = parser.parse(text)
+        if _tree_depth(tree) > MAX_TREE_DEPTH:  # an explicit limit, not the recursion limit
+            raise StlcError([_too_deep(file, tree)])
         members = _Builder(file).transform(tree)
     except _DepthError as e:
         t = e.token
@@ -468,6 +488,10 @@ def parse(text: str, file: str = "<input>") -> ast.File:
         raise StlcError([_syntax_diag(e, file, text)]) from None
     except RecursionError:
         raise StlcError([_too_deep(file, tree)]) from None
+    except VisitError as e:  # Lark wraps what the transformer raises (a RecursionError)
+        if isinstance(e.orig_exc, RecursionError):
+            raise StlcError([_too_deep(file, tree)]) from None
+        raise
     return ast.File(members, file, text)
 
 
@@ -476,5 +500,6 @@ def parse_file(path: str) -> ast.File:
         data = FsPath(path).read_bytes()
     except OSError as e:
         raise StlcError([Diagnostic("STL601", f"cannot read `{path}`: {e.strerror or e}",
-                                    Span(path, 0, 0, 0, 0))]) from None
+                                    Span(path, 1, 1, 1, 1),
+                                    "check the path; it must be a readable .stl file")]) from None
     return parse(decode(data, path), path)

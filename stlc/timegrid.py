@@ -12,22 +12,41 @@ import math
 from dataclasses import dataclass
 
 EPS = 1e-9
+#: "beyond any trace": a window offset this large selects no sample (traces and grids are
+#: far shorter); quotients t/dt beyond it (t = 1 s at dt = 1e-310 s is 1e310, i.e. ∞) are
+#: clamped to it instead of overflowing ``math.ceil``
+FAR = 1 << 40
+
+
+def _quotient(t: float, dt: float) -> float:
+    if not dt > 0 or math.isnan(t):
+        raise ValueError(f"time {t} s on a grid of step {dt} s")
+    return t / dt
+
+
+def _clamp(q: float) -> int | None:
+    if q >= FAR:
+        return FAR
+    if q <= -FAR:
+        return -FAR
+    return None
 
 
 def steps_ceil(t: float, dt: float) -> int:
-    if math.isinf(t):
-        return 1 << 40
-    return math.ceil(t / dt - EPS)
+    q = _quotient(t, dt)
+    far = _clamp(q)
+    return far if far is not None else math.ceil(q - EPS)
 
 
 def steps_floor(t: float, dt: float) -> int:
-    if math.isinf(t):
-        return 1 << 40
-    return math.floor(t / dt + EPS)
+    q = _quotient(t, dt)
+    far = _clamp(q)
+    return far if far is not None else math.floor(q + EPS)
 
 
 def is_aligned(t: float, dt: float) -> bool:
-    return math.isinf(t) or abs(t / dt - round(t / dt)) < 1e-6
+    q = _quotient(t, dt)
+    return math.isinf(q) or abs(q - round(q)) < 1e-6
 
 
 @dataclass(frozen=True, slots=True)

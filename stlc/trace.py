@@ -10,7 +10,9 @@ exception — with
 * STL604 ``t`` is not increasing or not uniform (steps may differ from their median by 1%,
   so times printed with few digits are accepted);
 
-each with a span at the offending line and column and a hint.  Blank lines are skipped,
+each with a span at the offending line and column and a hint.  Lines end at ``\\n``,
+``\\r\\n`` or ``\\r`` (as in ``.stl`` files; not at ``\\f``, ``\\v``, U+2028 …).  Blank lines
+are skipped,
 a UTF-8 byte-order mark is ignored, names and values may be padded with spaces and names
 may be double-quoted.  ``check_signals`` reports STL603 for columns a formula needs.
 
@@ -29,7 +31,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.diagnostics import (
+    Diagnostic,
+    Span,
+    StlcError,
+    did_you_mean,
+    normalize_newlines,
+    source_lines,
+)
 
 MAX_DIAGNOSTICS = 20
 STEP_TOLERANCE = 0.01
@@ -70,9 +79,10 @@ def _decode(path: str) -> str:
         raise _fail("STL601", f"cannot read trace `{path}`: {exc}", Span(path, 0, 0, 0, 0),
                     "check that the file exists and is readable") from None
 
-    def at(offset: int) -> Span:
-        line = data.count(b"\n", 0, offset) + 1
-        col = offset - (data.rfind(b"\n", 0, offset) + 1) + 1
+    def at(offset: int) -> Span:  # lines end at \n, \r\n or \r (diagnostics.source_lines)
+        head = data[:offset].replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        line = head.count(b"\n") + 1
+        col = len(head) - (head.rfind(b"\n") + 1) + 1
         return Span(path, line, col, line, col + 1)
 
     nul = data.find(b"\0")
@@ -136,7 +146,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
     path = os.fspath(path)
     if not isinstance(path, str):
         path = os.fsdecode(path)
-    lines = _decode(path).splitlines()
+    lines = source_lines(normalize_newlines(_decode(path)))
     rows = [(i + 1, ln) for i, ln in enumerate(lines) if ln.strip()]
     if not rows:
         raise _fail("STL602", "the trace is empty: no header row", Span(path, 1, 1, 1, 1),
@@ -178,7 +188,8 @@ def read_trace(path: str | os.PathLike) -> Trace:
     if diags:
         raise StlcError(diags)
     n = len(times)
-    dt = float(f"{(times[-1] - times[0]) / (n - 1):.10g}") if n > 1 else 1.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        dt = float(f"{(times[-1] - times[0]) / (n - 1):.10g}") if n > 1 else 1.0
     if not (dt > 0 and math.isfinite(dt)):
         raise _fail("STL604", f"the time step {dt:g} s is not a usable step", header_span,
                     "write the sample times in seconds")
@@ -190,7 +201,8 @@ def _check_uniform(path: str, t: np.ndarray, rows: list[tuple[int, str]],
                    diags: list[Diagnostic]) -> None:
     if len(t) < 2:
         return
-    steps = np.diff(t)
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e308 - -1e308 is inf: reported
+        steps = np.diff(t)
 
     def span(i: int) -> Span:
         lineno, line = rows[i]

@@ -35,7 +35,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics, ir, model
+from stlc import dynamics, interrupt, ir, model
 from stlc.backends.casadi_nlp import (
     PLAN_MARGIN,
     STATUS_MAP,
@@ -123,6 +123,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
                      lbx=np.concatenate(lbx + [np.full(low.aux.numel(), -np.inf)]),
                      ubx=np.concatenate(ubx + [np.full(low.aux.numel(), np.inf)]),
                      lbg=lbg, ubg=ubg)
+        interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
         sol_w = np.asarray(sol["x"]).ravel()[: w.numel()]
     return _unpack(sol_w, names, n, N)
 
@@ -229,6 +230,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     progress.mode = "robust" if most_robust else "objective"
     t0 = time.perf_counter()
     sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
+    interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
     dt = time.perf_counter() - t0
     x = np.asarray(sol["x"]).ravel()
     stats = dict(prob.solver.stats())

@@ -1,0 +1,143 @@
+"""Running a command so that Ctrl-C stops it at once and deep recursion cannot crash it.
+
+``run(fn)`` calls ``fn`` in a worker thread with a large stack (``STACK_BYTES``) and a high
+recursion limit, so that walks over very deep formulas (a chain of hundreds of named specs)
+work instead of overflowing, while the main thread waits for it.  Python delivers SIGINT
+to the main thread only; there ``run`` turns Ctrl-C into ``request()``: the flag is set
+and a ``KeyboardInterrupt`` is raised asynchronously in the worker, which stops pure
+Python code at once.  IPOPT runs in C and CasADi swallows exceptions raised in its
+iteration callback (the solve just ends early), so the solve schedule calls ``check()``
+after every ``nlpsol`` call, which re-raises.  ``deferred()`` marks a short section (the
+final renames of the outputs) that an interrupt must not cut in half; the main thread waits
+for it to end.  Then ``run`` raises ``KeyboardInterrupt`` in the main thread (the CLI exits
+130); a second Ctrl-C, or a worker that does not stop within ``GRACE_S``, ends the wait.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from typing import TypeVar
+
+T = TypeVar("T")
+
+STACK_BYTES = 512 * 1024 * 1024  # virtual; only the pages actually used are committed
+RECURSION_LIMIT = 60_000
+GRACE_S = 1.5
+
+_requested = threading.Event()
+_lock = threading.Lock()
+_state = {"worker": None, "deferring": 0, "pending": False, "abandoned": False}
+
+
+def abandoned() -> bool:
+    """Did the last ``run`` return while its worker was still running (in C code)?  Then the
+    process must end with ``os._exit``: finalising the interpreter would kill the worker
+    inside C++ code, which aborts."""
+    return bool(_state["abandoned"])
+
+
+def requested() -> bool:
+    return _requested.is_set()
+
+
+def check() -> None:
+    """Raise ``KeyboardInterrupt`` if Ctrl-C was pressed (call after a C solver returns)."""
+    if _requested.is_set():
+        raise KeyboardInterrupt
+
+
+def _raise_in(ident: int) -> None:
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(ident),
+                                               ctypes.py_object(KeyboardInterrupt))
+
+
+def request() -> None:
+    """Ask the running command to stop (called from the main thread on Ctrl-C)."""
+    _requested.set()
+    with _lock:
+        worker = _state["worker"]
+        if worker is None:
+            return
+        if _state["deferring"]:
+            _state["pending"] = True
+        else:
+            _raise_in(worker)
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """A section an interrupt must not cut: it takes effect when the section ends."""
+    with _lock:
+        _state["deferring"] += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _state["deferring"] -= 1
+            pending = _state["pending"] and not _state["deferring"]
+            _state["pending"] = False if pending else _state["pending"]
+        if pending:
+            raise KeyboardInterrupt
+
+
+def _deferring() -> bool:
+    with _lock:
+        return bool(_state["deferring"])
+
+
+def run(fn: Callable[[], T]) -> T:
+    """``fn()`` in a big-stack worker thread; Ctrl-C raises ``KeyboardInterrupt`` here."""
+    if threading.current_thread() is not threading.main_thread() or _state["worker"]:
+        return fn()  # nested use (tests, the fuzzer's own workers): no extra thread
+    box: dict[str, object] = {}
+    done = threading.Event()
+
+    def target() -> None:
+        try:
+            box["value"] = fn()
+        except BaseException as e:  # noqa: BLE001 - handed to the main thread
+            box["error"] = e
+        finally:
+            done.set()
+
+    _requested.clear()
+    _state["abandoned"] = False
+    old_stack = threading.stack_size()
+    try:
+        threading.stack_size(STACK_BYTES)
+        worker = threading.Thread(target=target, name="stlc-worker", daemon=True)
+    except (ValueError, RuntimeError):  # pragma: no cover - platform without stack control
+        return fn()
+    finally:
+        threading.stack_size(old_stack)
+    old_limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
+    try:
+        worker.start()
+        with _lock:
+            _state["worker"] = worker.ident
+        # not ``worker.join()``: in Python 3.11 a join interrupted by Ctrl-C marks the
+        # still running thread as stopped (bpo-45274's fix); an Event is safe to interrupt
+        try:
+            done.wait()
+        except KeyboardInterrupt:
+            request()
+            try:
+                done.wait(GRACE_S)
+                while not done.is_set() and _deferring():
+                    done.wait(0.05)
+            except KeyboardInterrupt:
+                pass  # a second Ctrl-C: stop waiting
+            _state["abandoned"] = not done.is_set()
+            raise KeyboardInterrupt from None
+    finally:
+        with _lock:
+            _state["worker"] = None
+        sys.setrecursionlimit(old_limit)
+    if "error" in box:
+        raise box["error"]  # type: ignore[misc]
+    return box["value"]  # type: ignore[return-value]

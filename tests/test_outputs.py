@@ -1,0 +1,174 @@
+"""The output-directory contract of ``stlc compile`` (issue 9, item 1) and Ctrl-C (item 2).
+
+stlc writes only its own files into ``-o DIR``, never removes anything else, checks DIR
+before solving (STL605, exit 1), replaces its files atomically, and concurrent runs on one
+DIR end with one complete set.  Ctrl-C during a solve exits 130 within 2 s and leaves the
+previous outputs as they were.  Missions are tiny point masses (a solve takes ~0.1 s).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from stlc import outputs
+from stlc.cli import main
+from stlc.diagnostics import Span, StlcError
+
+ROOT = Path(__file__).resolve().parent.parent
+OWN = {"report.html", "solution.json", "trajectory.csv"}
+VEHICLE = """\
+vehicle p : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (2, 2, 2) m/s^2
+  start { pos = (0, 0, 0) m }
+}
+"""
+
+
+def mission(name: str, axis: str) -> str:
+    return f"""
+mission {name} {{
+  vehicles = [p]
+  horizon = 3 s
+  step = 0.1 s
+  spec go = eventually[0, 3] (p.pos.{axis} >= 1 m)
+  require go
+  minimize -robustness
+}}
+"""
+
+
+TWO = VEHICLE + mission("east", "x") + mission("north", "y")
+
+
+def env() -> dict[str, str]:
+    e = {k: v for k, v in os.environ.items() if k != "STLC_DEBUG"}
+    e["PYTHONPATH"] = str(ROOT) + os.pathsep + e.get("PYTHONPATH", "")
+    return e
+
+
+@pytest.fixture
+def two(tmp_path) -> Path:
+    p = tmp_path / "two.stl"
+    p.write_text(TWO, encoding="utf-8")
+    return p
+
+
+def test_unrelated_files_in_the_output_directory_survive(two, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    (out / "sub").mkdir()
+    (out / "sub" / "deep.txt").write_text("also mine")
+    assert main(["compile", str(two), "--mission", "east", "-o", str(out), "-q"]) == 0
+    assert {p.name for p in out.iterdir()} == OWN | {"notes.txt", "sub"}
+    assert (out / "notes.txt").read_text() == "mine"
+    assert (out / "sub" / "deep.txt").read_text() == "also mine"
+
+
+def test_output_to_the_current_directory_keeps_the_mission_file(two, tmp_path):
+    r = subprocess.run([sys.executable, "-m", "stlc", "compile", "two.stl", "--mission", "east",
+                        "-o", ".", "-q"], cwd=tmp_path, env=env(), capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert {p.name for p in tmp_path.iterdir()} == OWN | {"two.stl"}
+    assert two.read_text() == TWO
+
+
+def test_stale_risk_outputs_of_an_earlier_run_are_removed_but_nothing_else(tmp_path):
+    out = tmp_path / "out"
+    stage = tmp_path / "stage"
+    out.mkdir()
+    stage.mkdir()
+    for name in ("risk.json", "solution.json", "keep.json"):
+        (out / name).write_text("old")
+    (stage / "solution.json").write_text("new")
+    assert outputs.publish(str(stage), str(out)) == ["solution.json"]
+    assert {p.name: p.read_text() for p in out.iterdir()} == {"solution.json": "new",
+                                                             "keep.json": "old"}
+
+
+@pytest.mark.parametrize("case", ["empty", "file", "inside_file", "owned_is_dir", "proc"])
+def test_unusable_output_directory_is_stl605_before_solving(two, tmp_path, case, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    target = {"empty": "", "file": str(blocker), "inside_file": str(blocker / "sub"),
+              "owned_is_dir": str(tmp_path / "o"), "proc": "/proc/stlc-cannot-create"}[case]
+    if case == "owned_is_dir":
+        (tmp_path / "o" / "report.html").mkdir(parents=True)
+    one = ["--mission", "east"] if case == "owned_is_dir" else []  # else DIR/<mission>/
+    t0 = time.process_time()
+    rc = main(["compile", str(two), *one, "-o", target, "-q"])
+    err = capsys.readouterr().err
+    assert rc == 1 and "error[STL605]" in err
+    assert f"{two}:" in err.splitlines()[0]  # located at the mission in the file
+    assert time.process_time() - t0 < 2.0  # no solve happened
+    assert blocker.read_text() == "x"
+
+
+def test_preflight_creates_nothing(tmp_path):
+    target = tmp_path / "a" / "b"
+    outputs.preflight(str(target), Span("f.stl", 1, 1, 1, 2))
+    assert not (tmp_path / "a").exists()
+    with pytest.raises(StlcError) as e:
+        outputs.preflight("", Span("f.stl", 3, 1, 3, 2))
+    assert e.value.diagnostics[0].span.line == 3
+
+
+def test_concurrent_compiles_to_one_directory_end_with_one_complete_set(two, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("keep")
+    procs = [subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(two), "--mission",
+                               m, "-o", str(out), "-q"], env=env(), stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
+             for m in ("east", "north", "east", "north")]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+    assert {p.name for p in out.iterdir()} == OWN | {"keep.txt"}
+    sol = json.loads((out / "solution.json").read_text())
+    header = (out / "trajectory.csv").read_text().splitlines()[0]
+    html = (out / "report.html").read_text()
+    # one set: the trajectory is the plan of the mission solution.json names
+    from stlc.trace import read_trace
+
+    tr = read_trace(out / "trajectory.csv")
+    axis = {"east": "p.pos.x", "north": "p.pos.y"}[sol["mission"]]
+    assert header.startswith("t,")
+    assert tr.channels[axis].max() == pytest.approx(1 + sol["robustness"]["exact"], abs=1e-6)
+    assert sol["mission"] in html
+
+
+def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    old = {name: f"previous {name}" for name in OWN}
+    for name, text in old.items():
+        (out / name).write_text(text)
+    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile",
+                          str(ROOT / "tests" / "missions" / "hexa_climb.stl"), "-o", str(out)],
+                         env=env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = []
+    for line in p.stderr:  # progress lines: interrupt inside IPOPT's iterations
+        seen.append(line)
+        if "] iter" in line:
+            break
+    assert any("] iter" in s for s in seen), "".join(seen)
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    rest = p.stderr.read()
+    p.wait(timeout=30)
+    elapsed = time.monotonic() - t0
+    assert p.returncode == 130, "".join(seen) + rest
+    assert elapsed < 2.0
+    assert "interrupted" in rest and "energy" not in rest  # no later stage ran
+    assert {q.name: q.read_text() for q in out.iterdir()} == old
