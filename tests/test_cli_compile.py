@@ -267,14 +267,19 @@ def test_one_violated_mission_of_two_exits_3(tmp_path, capsys):
     assert "spec `go`" in capsys.readouterr().err
 
 
+TEAM_SMALL = (Path(__file__).parent / "missions" / "team_small.stl").read_text()
+
 BAD_INPUTS = {
     "syntax": ("bad.stl", POINT_MASS + "mission m {\n  horizon = 3 s\n  require p.pos.x >=\n}\n",
                None, None),
     "unit": ("unit.stl", POINT_MASS.replace("(1, 1, 1) m/s", "(1, 1, 1) m"), None, "STL204"),
     "unknown_mission": ("reach.stl", REACH, "nope", "STL101"),
     "no_mission": (str(SPECS / "monitor_example.stl"), None, None, "STL109"),
-    # CURRENT LIMITATION: the point-mass backend does not model the payload yet
-    "payload": (str(SPECS / "bird_diverter_2x7.stl"), None, None, "STL401"),
+    # 3 targets, 2 drones carrying one diverter each and no refilling station: no
+    # assignment exists, a located STL503 before any trajectory is planned
+    "no_assignment": ("team.stl", TEAM_SMALL.replace("capacity = 2", "capacity = 1")
+                      .replace("  station s1", "  # s1").replace("  station s2", "  # s2"),
+                      None, "STL503"),
     "missing_file": ("missing.stl", None, None, "STL601"),
 }
 

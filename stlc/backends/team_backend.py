@@ -164,6 +164,8 @@ class TeamRefine(Backend):
             robustness_exact=float("nan"), robustness_smooth=float(stats.get("r", np.nan)),
             specs={}, energy=0.0, times=plan.times, channels=plan_channels(plan),
             timing={"solve_s": wall, "build_s": float(stats.get("build_cpu_s", 0.0))},
+            smoothing={"method": problem.smoothing.method, "lambda": problem.smoothing.lam,
+                       "lambda_final": problem.smoothing.lam, "threshold": problem.threshold},
             solver={"name": self.name, "return_status": str(status), "ipopt_status": code,
                     "iterations": int(stats.get("iterations", 0)),
                     "rounds": len(stats.get("rounds", [])),

@@ -206,10 +206,25 @@ class _Model:
                     elif a.tail == ("S", s):
                         row[k] = row.get(k, 0.0) - 1.0
                 ub.append((row, 1.0))
+            # ... and no drone refills at another drone's home: a station is used by one
+            # drone at most (usage binaries y[d, s] after the arc variables), so no two
+            # drones ever share a 2 m station that cannot keep them Γ_dis apart
+            for s in range(ns):
+                ys = []
+                for d in range(nd):
+                    y = n + len(ys) + s * nd
+                    ys.append(y)
+                    for k, a in enumerate(arcs):
+                        if a.drone == d and a.head == ("S", s):
+                            ub.append(({k: 1.0, y: -1.0}, 0.0))
+                ub.append(({y: 1.0 for y in ys}, 1.0))
+            n_extra = nd * ns
+        else:
+            n_extra = 0
         self.seen: set[frozenset] = set()
-        self.n, self.eq, self.ub = n, eq, ub
-        self.cost = np.array([a.cost for a in arcs])
-        self.drone_of = np.array([a.drone for a in arcs])
+        self.n, self.eq, self.ub = n + n_extra, eq, ub
+        self.cost = np.concatenate([[a.cost for a in arcs], np.zeros(n_extra)])
+        self.drone_of = np.concatenate([[a.drone for a in arcs], -np.ones(n_extra, dtype=int)])
 
     @staticmethod
     def _matrix(rows: list[tuple[dict[int, float], float]], n: int):
