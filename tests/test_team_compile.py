@@ -1,0 +1,101 @@
+"""A reduced team mission end to end (parse → MILP seed → refinement → verification →
+outputs), checked against what the mission says, computed independently of the planner:
+pairwise distances and bounds on the dense samples, installs from the payload rule."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stlc.cli import main
+from stlc.pipeline import load, plan
+from stlc.team import inside
+from stlc.team.payload import payload_team
+from stlc.team.seed import scenario_from_program
+
+MISSION = Path(__file__).parent / "missions" / "team_small.stl"
+
+
+@pytest.fixture(scope="module")
+def planned():
+    program = load(str(MISSION)).program
+    mission = program.missions["team_small"]
+    problem, sol = plan(program, mission)
+    return program, mission, problem, sol
+
+
+def test_team_plan_satisfies_the_mission(planned):
+    program, mission, problem, sol = planned
+    assert sol.status == "satisfied"
+    assert sol.robustness_exact >= mission.threshold
+    assert all(s.robustness >= mission.threshold for s in sol.specs.values())
+
+
+def test_separation_and_bounds_on_the_dense_trajectory(planned):
+    program, mission, problem, sol = planned
+    t = np.asarray(sol.times)
+    assert np.allclose(np.diff(t), mission.step)  # the mission's declared step
+    pos = {d: np.stack([sol.channels[f"{d}.pos.{a}"] for a in "xyz"], 1) for d in sol.routes}
+    dmin = np.min(np.linalg.norm(pos["uav1"] - pos["uav2"], axis=1))
+    assert dmin >= 2.0 + mission.threshold - 1e-6  # Γ_dis = 2 m
+    for d in sol.routes:
+        v = program.vehicles[d]
+        for f, lim in (("vel", v.vel_max), ("acc", v.acc_max)):
+            arr = np.stack([sol.channels[f"{d}.{f}.{a}"] for a in "xyz"], 1)
+            assert np.all(np.abs(arr) <= np.asarray(lim) + 1e-6), (d, f)
+        # the velocities are the derivative of the positions (a flyable trajectory)
+        vel = np.stack([sol.channels[f"{d}.vel.{a}"] for a in "xyz"], 1)
+        assert np.max(np.abs(np.gradient(pos[d], t, axis=0) - vel)) < 0.2
+
+
+def test_installs_and_refills_follow_the_payload_rule(planned):
+    program, mission, problem, sol = planned
+    sc = scenario_from_program(program, mission)
+    pos = {d: np.stack([sol.channels[f"{d}.pos.{a}"] for a in "xyz"], 1) for d in sol.routes}
+    payload, events = payload_team(sol.times, pos, sc)
+    assert [(e.drone, e.kind, e.region) for e in events] == \
+        [(e.drone, e.kind, e.region) for e in sol.events]
+    installs = [e for e in events if e.kind == "install"]
+    assert sorted(e.region for e in installs) == ["ta", "tb", "tc"]  # each once
+    for e in installs:
+        k = int(round(e.end / mission.step))
+        assert payload[e.drone][k] >= 1  # it carried a diverter
+    stations = {b.name: b for b in sc.stations}
+    for e in events:
+        if e.kind == "refill":
+            k0, k1 = (int(round(x / mission.step)) for x in (e.start, e.end))
+            assert np.all(inside(pos[e.drone][k0:k1 + 1], stations[e.region]))
+            assert e.end - e.start >= sc.refill_time - 1e-9
+    for d, c in payload.items():
+        assert c.min() >= 0 and c.max() <= program.vehicles[d].capacity
+        np.testing.assert_array_equal(sol.channels[f"{d}.payload"], c)
+
+
+def test_seed_is_kept_and_judged_spec_by_spec(planned):
+    program, mission, problem, sol = planned
+    labels = [c.label for c in sol.comparisons]
+    assert labels[0] == "MILP only" and "standard" in labels
+    for c in sol.comparisons:
+        assert set(c.specs) == set(sol.specs)
+        assert c.robustness_exact == pytest.approx(min(c.specs.values()), abs=1e-9)
+
+
+def test_cli_writes_team_outputs(tmp_path):
+    out = tmp_path / "out"
+    (out / "mine.txt").parent.mkdir()
+    (out / "mine.txt").write_text("keep me")
+    assert main(["compile", str(MISSION), "-o", str(out), "-q"]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"solution.json", "trajectory.csv", "report.html", "trajectory.uav1.csv",
+            "trajectory.uav2.csv", "mine.txt"} <= names
+    assert (out / "mine.txt").read_text() == "keep me"
+    sol = json.loads((out / "solution.json").read_text())
+    assert sol["status"] == "satisfied"
+    assert {e["region"] for e in sol["team"]["events"] if e["kind"] == "install"} == \
+        {"ta", "tb", "tc"}
+    head = (out / "trajectory.uav1.csv").read_text().splitlines()[0]
+    assert head == "t,x,y,z,vx,vy,vz,ax,ay,az,heading"
+    assert "uav1.payload" in (out / "trajectory.csv").read_text().splitlines()[0]
