@@ -191,7 +191,8 @@ def scene(program: Program, mission: Mission, sol: Solution) -> dict:
     roles = list(dict.fromkeys((b["role_label"], b["color"]) for b in boxes
                                if b["visible"] and not b["wireframe"]))
     return {"boxes": boxes, "humans": [_human(h) for h in humans.values()],
-            "trajectories": trajs, "per_drone": len(trajs) > 1, "extent": {"lo": nums(lo), "hi": nums(hi)},
+            "trajectories": trajs, "per_drone": len(trajs) > 1,
+            "extent": {"lo": nums(lo), "hi": nums(hi)},
             "roles": [{"label": lab, "color": c} for lab, c in roles],
             "hidden": hidden, "hidden_text": ", ".join(hidden),
             "duration_text": fmt(sol.times[-1] if len(sol.times) else None, unit="s")}
