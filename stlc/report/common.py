@@ -116,3 +116,13 @@ def pair(v: object) -> tuple[float | None, float | None]:
 def anchor(line: int, n_lines: int) -> str:
     """The id of a source line in the page (``L12``), or ``""`` when out of range."""
     return f"L{line}" if 0 < line <= n_lines else ""
+
+
+#: one colour per drone, in the order of the mission's vehicles (scene and team plots)
+DRONE_COLORS = ("#1f77b4", "#ff7f0e", "#17becf", "#e377c2", "#8c564b", "#bcbd22", "#7f7f7f",
+                "#d62728", "#9467bd", "#2ca02c")
+
+
+def drone_color(i: int) -> str:
+    """The colour of the ``i``-th drone (cycled)."""
+    return DRONE_COLORS[i % len(DRONE_COLORS)]

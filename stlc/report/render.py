@@ -33,7 +33,7 @@ from stlc.solution import Solution
 from .view import build_view
 
 #: the view sections the page script needs, written into the JSON data block
-DATA_KEYS = ("scene", "signals", "energy", "risk")
+DATA_KEYS = ("scene", "signals", "energy", "team", "risk")
 #: the risk pass's samples, looked for next to the report
 SAMPLES_FILE = "risk_samples.npz"
 

@@ -17,7 +17,7 @@ from stlc import ir
 from stlc.model import Box, Human, Mission, Program
 from stlc.solution import Solution
 
-from .common import channel, fmt, fmt_vec, nums, vehicles
+from .common import channel, drone_color, fmt, fmt_vec, nums, vehicles
 from .predicates import mentioned
 
 #: region colours (the papers' convention)
@@ -167,7 +167,8 @@ def scene(program: Program, mission: Mission, sol: Solution) -> dict:
             continue
         pts.append(np.stack(xyz, axis=1))  # type: ignore[arg-type]
         trajs.append({"vehicle": v, "x": nums(xyz[0]), "y": nums(xyz[1]),  # type: ignore
-                      "z": nums(xyz[2]), "t": t})  # type: ignore[arg-type]
+                      "z": nums(xyz[2]), "t": t,  # type: ignore[arg-type]
+                      "color": drone_color(len(trajs))})
     lo, hi = _extent(program, pts, humans)
     formulas: list[ir.Formula] = [mission.requirement, *mission.specs.values()]
     used = mentioned(formulas, [r.name for r in program.scenario.regions])
@@ -190,7 +191,8 @@ def scene(program: Program, mission: Mission, sol: Solution) -> dict:
     roles = list(dict.fromkeys((b["role_label"], b["color"]) for b in boxes
                                if b["visible"] and not b["wireframe"]))
     return {"boxes": boxes, "humans": [_human(h) for h in humans.values()],
-            "trajectories": trajs, "extent": {"lo": nums(lo), "hi": nums(hi)},
+            "trajectories": trajs, "per_drone": len(trajs) > 1,
+            "extent": {"lo": nums(lo), "hi": nums(hi)},
             "roles": [{"label": lab, "color": c} for lab, c in roles],
             "hidden": hidden, "hidden_text": ", ".join(hidden),
             "duration_text": fmt(sol.times[-1] if len(sol.times) else None, unit="s")}

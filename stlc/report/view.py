@@ -8,7 +8,8 @@ plot data can be written into the page with ``json.dumps(..., allow_nan=False)``
 
 Sections: ``summary``, ``banner`` (``None`` when the mission is satisfied), ``specs`` (the
 requirements table), ``scene`` (``scene.py``), ``signals`` (``signals.py``), ``energy``,
-``risk`` (``risk_view.py``; ``None`` without a risk analysis) and ``source`` (numbered
+``team`` (``team_view.py``; ``None`` unless the plan is a team plan), ``risk``
+(``risk_view.py``; ``None`` without a risk analysis) and ``source`` (numbered
 lines, diagnostics).
 
 ``energy``: ``Solution.energy_profile`` is the energy of each sample (J, summing to
@@ -33,6 +34,7 @@ from .predicates import predicate_line, readable
 from .risk_view import risk
 from .scene import scene
 from .signals import signals, spec_formulas, windows
+from .team_view import team
 
 STATUS_LABELS = {"satisfied": "Satisfied", "violated": "Violated",
                  "solver_failed": "Solver failed"}
@@ -327,6 +329,7 @@ def build_view(program: Program, mission: Mission, solution: Solution,
         "scene": scene(program, mission, solution),
         "signals": signals(program, mission, solution, wins, rows, markers),
         "energy": en,
+        "team": team(program, mission, solution),
         "risk": risk(solution.risk, mission, len(program.source.splitlines()),
                      risk_samples),
         "source": _source(program, mission, solution, rows),

@@ -92,10 +92,12 @@
                     hoverinfo: "skip", line: { color: "#111", width: 5 }, legendgroup: g });
     });
     s.trajectories.forEach(function (tr, n) {
+      /* a team: one colour per drone along its path, time on the dots */
       traces.push({ type: "scatter3d", mode: "lines+markers", x: tr.x, y: tr.y, z: tr.z,
                     name: txt(tr.vehicle), customdata: tr.t, showlegend: true, legendgroup: "v-" + tr.vehicle,
-                    line: { color: tr.t, colorscale: "Viridis", width: 6 },
-                    marker: { size: 2.5, color: tr.t, colorscale: "Viridis", showscale: n === 0,
+                    line: s.per_drone ? { color: tr.color, width: 5 }
+                                      : { color: tr.t, colorscale: "Viridis", width: 6 },
+                    marker: { size: s.per_drone ? 1.5 : 2.5, color: tr.t, colorscale: "Viridis", showscale: n === 0,
                               colorbar: { title: { text: "t (s)", side: "top" }, orientation: "h",
                                           thickness: 10, len: 0.45, x: 0.02, xanchor: "left", y: 0.0,
                                           yanchor: "top" } },
@@ -167,8 +169,8 @@
     });
     s.trajectories.forEach(function (tr) {
       traces.push({ type: "scatter", mode: "lines+markers", x: tr.x, y: tr.y, name: txt(tr.vehicle),
-                    customdata: tr.t, line: { color: "#9aa5b1", width: 1 },
-                    marker: { size: 5, color: tr.t, colorscale: "Viridis" }, showlegend: false,
+                    customdata: tr.t, line: { color: s.per_drone ? tr.color : "#9aa5b1", width: s.per_drone ? 2.5 : 1 },
+                    marker: { size: s.per_drone ? 3 : 5, color: tr.t, colorscale: "Viridis" }, showlegend: s.per_drone,
                     hovertemplate: txt(tr.vehicle) + "<br>t = %{customdata} s<br>(%{x}, %{y})<extra></extra>" });
       traces.push({ type: "scatter", mode: "markers", x: [tr.x[0]], y: [tr.y[0]], showlegend: false,
                     hoverinfo: "skip", marker: { size: 9, color: "#fff", line: { color: "#111", width: 2 } } });
@@ -264,6 +266,66 @@
       shapes: deco.shapes, annotations: deco.annotations }));
   }
 
+  /* ------------------------------------------------------------------ team */
+  /* who installs and refills what, when: one row per drone, one bar per event; the planned
+     dwells are pale, wider bars behind the events verification recomputed */
+  function gantt(tm) {
+    var g = tm.gantt, groups = {}, order = [];
+    g.bars.forEach(function (b) {
+      var key = (b.planned ? "p-" : "e-") + b.kind;
+      if (!groups[key]) { groups[key] = []; order.push(key); }
+      groups[key].push(b);
+    });
+    order.sort(function (a, b) { return (a[0] === "p" ? 0 : 1) - (b[0] === "p" ? 0 : 1); });
+    var rows = g.rows.map(txt);
+    var traces = order.map(function (key) {
+      var bs = groups[key], planned = key[0] === "p";
+      return { type: "bar", orientation: "h", y: bs.map(function (b) { return txt(b.drone); }),
+               base: bs.map(function (b) { return b.start; }),
+               x: bs.map(function (b) { return b.duration; }),
+               text: planned ? null : bs.map(function (b) { return txt(b.region); }),
+               textposition: "inside", insidetextanchor: "middle", textfont: { color: "#fff", size: 10 },
+               width: planned ? 0.78 : 0.46, opacity: planned ? 0.3 : 0.95,
+               name: (planned ? "planned " : "") + bs[0].kind, legendgroup: key,
+               marker: { color: bs[0].color, line: { width: planned ? 0 : 0.6, color: "#fff" } },
+               customdata: bs.map(function (b) { return txt(b.text); }),
+               hovertemplate: "%{y}: %{customdata}<extra></extra>" };
+    });
+    var span = g.horizon || 1;
+    var el = document.getElementById("team-gantt");
+    if (el) el.style.height = (110 + 46 * rows.length) + "px";
+    draw("team-gantt", traces, baseLayout({
+      title: title("Who installs and refills what, and when"), hovermode: "closest", barmode: "overlay",
+      margin: { l: 70, r: 18, t: 32, b: 40 },
+      xaxis: timeAxis({ range: [-0.01 * span, 1.01 * span] }),
+      yaxis: { type: "category", categoryorder: "array", categoryarray: rows,
+               range: [rows.length - 0.5, -0.5], gridcolor: GRID } }));
+  }
+  function forwardPlot(fw) {
+    var traces = [], shapes = [], notes = [], t0 = fw.t[0], t1 = tEnd(fw.t), seen = {};
+    fw.drones.forEach(function (d) {
+      traces.push({ type: "scatter", mode: "lines", x: fw.t, y: d.y, name: txt(d.name),
+                    legendgroup: "f-" + d.name, line: { color: d.color, width: 1.8 } });
+      d.comparisons.forEach(function (c) {
+        traces.push({ type: "scatter", mode: "lines", x: fw.t, y: c.y, name: txt(d.name + " · " + c.label),
+                      legendgroup: "f-" + d.name, visible: "legendonly",
+                      line: { color: rgba(d.color, 0.7), width: 1.2, dash: "dot" } });
+      });
+      if (d.v_star === null || seen[d.v_star]) return;
+      seen[d.v_star] = true;
+      traces.push({ type: "scatter", mode: "lines", x: [t0, t1], y: [d.v_star, d.v_star],
+                    showlegend: false, hoverinfo: "skip", line: { width: 0 } });
+      shapes.push({ type: "line", xref: "x", yref: "y", x0: t0, x1: t1, y0: d.v_star, y1: d.v_star,
+                    line: { color: "#111", width: 1.5, dash: "dash" } });
+      notes.push({ xref: "x", yref: "y", x: t1, y: d.v_star, xanchor: "right", yanchor: "bottom",
+                   showarrow: false, text: "v* = " + d.v_star + " m/s", font: { size: 10, color: "#111" } });
+    });
+    draw("team-forward", traces, baseLayout({
+      title: title("Forward speed hypot(vx, vy) against v*"), xaxis: timeAxis({ range: [t0, t1] }),
+      yaxis: { title: { text: "m/s" }, gridcolor: GRID, zeroline: false, rangemode: "tozero" },
+      shapes: shapes, annotations: notes }));
+  }
+
   /* ------------------------------------------------------------------ energy, risk */
   function energyPlot(e) {
     var traces = [];
@@ -321,6 +383,10 @@
   sceneTop(data.scene);
   if (data.signals.timeline) timeline(data.signals);
   data.signals.plots.forEach(function (p) { signalPlot(data.signals, p); });
+  if (data.team) {
+    gantt(data.team);
+    if (data.team.forward) forwardPlot(data.team.forward);
+  }
   if (data.energy.profiles.length) energyPlot(data.energy);
   if (data.risk) data.risk.cases.forEach(function (c) { if (c.histogram) riskPlot(c); });
 })();
