@@ -17,10 +17,10 @@ from strategies import cases, formulas
 from stlc import cli, ir, monitor, smooth
 from stlc.assess import risk_table, run_risk
 from stlc.ir import Always, And, Bin, Const, Eventually, Param, Pred, Sig, Until
-from stlc.monitor import Demand, Plan, robustness_many
+from stlc.monitor_demand import Demand, Plan, robustness_many
 from stlc.pipeline import load
 from stlc.risk import robustness_histogram, shared_robustness
-from stlc.smooth import SmoothDemand, smooth_robustness_many
+from stlc.smooth_demand import SmoothDemand, smooth_robustness_many
 from stlc.solution import Solution
 
 # A point-mass vehicle that sits at one point for 1 s, next to an operator whose region
