@@ -33,7 +33,8 @@ import numpy as np
 
 from stlc import dynamics, ir, model, vehicles
 from stlc.backends.casadi_expr import planner_form
-from stlc.backends.smooth_casadi import LoweredRobustness, lower_robustness
+from stlc.backends.smooth_casadi import lower_robustness
+from stlc.backends.smooth_windows import LoweredRobustness
 from stlc.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
