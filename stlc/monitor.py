@@ -17,7 +17,7 @@ of LANGUAGE.md ("Robustness semantics"), vectorised with numpy:
 
 Conventions the contract leaves open (worth repeating in the README):
 
-* The formula is first put in negation normal form (``ir.normalize``); its semantics is
+* The formula is first put in negation normal form (``nnf.normalize``); its semantics is
   that of the NNF, so ``f`` and ``normalize(f)`` always have the same robustness.
 * A window clipped to the trace can be empty (it starts after the last sample, or
   ``[lo, hi]`` contains no sample at all, e.g. ``[0.05, 0.08]`` at dt = 0.1): ``always``
@@ -34,7 +34,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from stlc import ir
+from stlc import nnf
 from stlc.ir import (
     Always,
     And,
@@ -289,8 +289,8 @@ _RULES: dict[type, Callable[[Evaluator, Formula], np.ndarray]] = {
     Pred: Evaluator.pred,
     TrueF: lambda m, f: m.const(INF),
     FalseF: lambda m, f: m.const(-INF),
-    Not: lambda m, f: m.sig(ir.normalize(f)),
-    Implies: lambda m, f: m.sig(ir.normalize(f)),
+    Not: lambda m, f: m.sig(nnf.normalize(f)),
+    Implies: lambda m, f: m.sig(nnf.normalize(f)),
     And: lambda m, f: np.minimum.reduce(np.broadcast_arrays(*map(m.sig, f.args))),
     Or: lambda m, f: np.maximum.reduce(np.broadcast_arrays(*map(m.sig, f.args))),
     Always: lambda m, f: sliding(m.sig(f.arg), *m.window(f.lo, f.hi), np.minimum, INF),
@@ -308,7 +308,7 @@ def robustness_signal(f: Formula, dt: float, channels: Channels, params: Params 
     ``n`` defaults to the length of the first channel; pass it when ``channels`` mixes
     lengths (e.g. inputs with one sample fewer than states) or is empty.
     """
-    return Evaluator(dt, channels, params, n).sig(ir.normalize(f))
+    return Evaluator(dt, channels, params, n).sig(nnf.normalize(f))
 
 
 def robustness(f: Formula, dt: float, channels: Channels, params: Params | None = None,
@@ -331,7 +331,7 @@ def binding(f: Formula, dt: float, channels: Channels, params: Params | None = N
     ``next`` past the end.  Parameters must be scalars.
     """
     m = Evaluator(dt, channels, params, n)
-    nf = ir.normalize(f)
+    nf = nnf.normalize(f)
     r = m.sig(nf)
     if r.ndim != 1:
         raise ValueError("binding needs scalar parameters")

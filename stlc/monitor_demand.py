@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlc import ir
+from stlc import ir, nnf
 from stlc.ir import (
     Always,
     And,
@@ -108,7 +108,7 @@ class Plan:
                     continue
                 if isinstance(node, (Not, Implies)):
                     raise ValueError("Plan needs formulas in negation normal form "
-                                     "(ir.normalize)")
+                                     "(nnf.normalize)")
                 stack.append((node, True))
                 stack.extend((c, False) for c in reversed(_kids(node)) if c not in index)
         self.roots = tuple(index[r] for r in roots)
@@ -417,11 +417,11 @@ class Demand:
 
 def robustness_many(formulas, dt: float, channels: Channels, params: Params | None = None,
                     *, n: int | None = None) -> list:
-    """Robustness at the first sample of each formula (``ir.normalize`` is applied) in one
+    """Robustness at the first sample of each formula (``nnf.normalize`` is applied) in one
     shared, demand-driven evaluation (``Demand``): floats, or arrays of shape (K,)."""
     if n is None:
         if not channels:
             raise ValueError("no channels: pass the number of samples n")
         n = len(next(iter(channels.values())))
-    plan = Plan(ir.normalize_many(formulas, flat_max=FLAT_MAX), dt, n)
+    plan = Plan(nnf.normalize_many(formulas, flat_max=FLAT_MAX), dt, n)
     return Demand(plan, channels, params).values()

@@ -200,13 +200,13 @@ def shared_robustness(formulas: Mapping[str, Formula], dt: float,
     only on the samples its parents need (``monitor_demand.Plan``), and the smooth pass
     reuses the exact pass's predicate values.  Realisations are processed ``chunk`` at a time.
     Returns ``(exact, smooth)``, each ``{key: (K,) array}`` (smooth empty without it)."""
-    from stlc import ir
+    from stlc import nnf
     from stlc.monitor_demand import Demand, Plan
     from stlc.smooth_demand import SmoothDemand
 
     keys = list(formulas)
     n = len(next(iter(channels.values())))
-    plan = Plan([ir.normalize(formulas[k]) for k in keys], dt, n)
+    plan = Plan([nnf.normalize(formulas[k]) for k in keys], dt, n)
     exact = {k: np.empty(K) for k in keys}
     smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
     for lo in range(0, K, chunk):

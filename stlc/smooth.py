@@ -1,6 +1,6 @@
 """Smooth robustness: a numpy reference of the semantics the optimisation backend encodes.
 
-Gilpin, Kurtz and Lin (2021), on the negation normal form (``ir.normalize`` first):
+Gilpin, Kurtz and Lin (2021), on the negation normal form (``nnf.normalize`` first):
 
 * smooth min  ``-(1/λ) log Σ e^{-λ a_i}``                       (always ≤ min)
 * smooth max  ``Σ a_i e^{λ a_i} / Σ e^{λ a_i}``  (``method="gkl"``, ≤ max, so sound), or
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlc import ir
+from stlc import nnf
 from stlc.ir import (
     Always,
     And,
@@ -161,8 +161,8 @@ _SMOOTH_RULES: dict[type, Callable[[_Smooth, Formula], np.ndarray]] = {
     Pred: _Smooth.pred,
     TrueF: lambda m, f: m.const(INF),
     FalseF: lambda m, f: m.const(-INF),
-    Not: lambda m, f: m.sig(ir.normalize(f)),
-    Implies: lambda m, f: m.sig(ir.normalize(f)),
+    Not: lambda m, f: m.sig(nnf.normalize(f)),
+    Implies: lambda m, f: m.sig(nnf.normalize(f)),
     And: lambda m, f: m.smin.reduce([m.sig(a) for a in f.args]),
     Or: lambda m, f: m.smax.reduce([m.sig(a) for a in f.args]),
     Always: lambda m, f: m.smin.window(m.sig(f.arg), *m.window(f.lo, f.hi)),
@@ -177,7 +177,7 @@ def smooth_robustness_signal(f: Formula, dt: float, channels: Channels,
                              params: Params | None = None, lam: float = 10.0,
                              method: str = "gkl", *, n: int | None = None) -> np.ndarray:
     """Smooth robustness of ``f`` at every sample: shape ``(n,)`` or ``(K, n)``."""
-    return _Smooth(dt, channels, params, n, lam, method).sig(ir.normalize(f))
+    return _Smooth(dt, channels, params, n, lam, method).sig(nnf.normalize(f))
 
 
 def smooth_robustness(f: Formula, dt: float, channels: Channels, params: Params | None = None,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlc import ir
+from stlc import nnf
 from stlc.monitor import Channels, Params
 from stlc.monitor_demand import Demand, Plan, _pad
 from stlc.smooth import INF, METHODS, Aggregate, smax_gkl, smax_lse, smin
@@ -358,12 +358,12 @@ def _nested_head(outer: Aggregate, inner: Aggregate, f: np.ndarray, g: np.ndarra
 def smooth_robustness_many(formulas, dt: float, channels: Channels,
                            params: Params | None = None, lam: float = 10.0,
                            method: str = "gkl", *, n: int | None = None) -> list:
-    """Smooth robustness at the first sample of each formula (``ir.normalize`` is applied)
+    """Smooth robustness at the first sample of each formula (``nnf.normalize`` is applied)
     in one shared, demand-driven evaluation (``SmoothDemand``): floats, or arrays of
     shape (K,)."""
     if n is None:
         if not channels:
             raise ValueError("no channels: pass the number of samples n")
         n = len(next(iter(channels.values())))
-    plan = Plan([ir.normalize(f) for f in formulas], dt, n)
+    plan = Plan([nnf.normalize(f) for f in formulas], dt, n)
     return SmoothDemand(plan, channels, params, lam, method).values()

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from stlc import dynamics, ir, model, monitor, vehicles
+from stlc import dynamics, model, monitor, nnf, vehicles
 from stlc.diagnostics import StlcError
 from stlc.pipeline import compile_file, load, plan
 from stlc.trace import read_trace
@@ -93,7 +93,7 @@ def test_known_optimal_robustness(tmp_path, name, require, horizon, optimum, goo
     assert sol.specs["goal"].satisfied
     assert sol.specs["goal"].robustness == pytest.approx(sol.robustness_exact, abs=1e-12)
     # the exact monitor on the returned channels agrees with the Solution
-    f = ir.normalize(program.missions["m"].requirement)
+    f = nnf.normalize(program.missions["m"].requirement)
     assert monitor.robustness(f, 0.1, sol.channels) == pytest.approx(sol.robustness_exact)
     # the plan respects the vehicle's bounds and start state
     vx = np.asarray(sol.channels["p.vel.x"])

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics, ir, model, vehicles
+from stlc import dynamics, ir, model, nnf, vehicles
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
@@ -204,7 +204,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     lam, w_rob, w_en, w_fwd = (ca.SX.sym(s) for s in ("lam", "w_rob", "w_en", "w_fwd"))
     p = ca.vertcat(lam, w_rob, w_en, w_fwd)
 
-    formula = ir.normalize(mission.requirement)
+    formula = nnf.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     planned = planner_form(formula, mission.threshold, program.params)
     lowered = lower_robustness(planned, grid, chans, program.params, lam,

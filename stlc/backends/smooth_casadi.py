@@ -1,6 +1,6 @@
 """Lower a normalised STL formula to smooth robustness in CasADi SX, ready for an NLP.
 
-``lower_robustness`` turns an NNF formula (``ir.normalize``) on a ``TimeGrid`` into
+``lower_robustness`` turns an NNF formula (``nnf.normalize``) on a ``TimeGrid`` into
 
 * ``root`` — the smooth robustness at sample 0 (to be maximised),
 * ``aux``  — auxiliary decision variables introduced by *lifting*,
@@ -188,7 +188,7 @@ class _Lowerer:
                 fn = LOWER.get(type(node))
                 if fn is None:
                     raise LoweringError(f"{type(node).__name__} is not an NNF node; "
-                                        "run ir.normalize first")
+                                        "run nnf.normalize first")
                 self.rows[node] = _Row(k, fn(self, node, k))
         root = self.rows[f].val.comps[0]
         last = self._last_lift
