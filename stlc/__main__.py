@@ -1,3 +1,5 @@
+"""``python -m stlc``: the command line (``stlc.cli.main``)."""
+
 import sys
 
 from stlc.cli import main

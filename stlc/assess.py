@@ -12,7 +12,7 @@ command itself is ordered by ``stlc.pipeline.risk_file``).
 
 from __future__ import annotations
 
-from stlc import ir, model
+from stlc import model, nnf
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.planning.problem import mission_specs
 from stlc.solution import Solution
@@ -32,7 +32,7 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
         return None, None
     specs = {k: s.normal for k, s in mission_specs(program, mission).items()}
     base = tuple(d for h in program.scenario.humans for d in h.uncertain)
-    results = riskmod.run_cases(cfg, ir.normalize(mission.requirement), specs,
+    results = riskmod.run_cases(cfg, nnf.normalize(mission.requirement), specs,
                                 mission.step if dt is None else dt, sol.channels,
                                 program.params, mission.smoothing.lam,
                                 mission.smoothing.method, base=base)

@@ -1,8 +1,10 @@
-"""Vehicle dynamics: continuous ODEs, discretisation, hover, energy and derived signals.
+"""Vehicle dynamics: the model-specific math — continuous ODEs, discretisation, hover,
+energy and rotor speed.
 
-Consumed by the CasADi backend (SX expressions, multiple shooting), by the simulator / replay
-and by the monitor and reports (numpy).  Rotor geometry and allocation live in
-``stlc.geometry``.
+Consumed through the vehicle registry (``stlc.vehicles``: layout, bounds, start state,
+derived signals per model), by the CasADi backend (SX expressions, multiple shooting), by
+the simulator / replay and by the monitor and reports (numpy).  Rotor geometry and
+allocation live in ``stlc.geometry``.
 
 Multirotor (paper A, eq. 1), state in ``Multirotor.channels()`` order
     x = (p (3), η = (roll φ, pitch θ, yaw ψ) (3), v (3, world), ω (3, body), ξ (n)),  u = ξ̇ (n)
@@ -36,7 +38,7 @@ import casadi as ca
 import numpy as np
 
 from stlc.geometry import allocation, wrench_matrix
-from stlc.model import Multirotor, PointMass, Vehicle
+from stlc.model import Multirotor, PointMass
 
 #: state layout offsets of the multirotor (see module docstring)
 POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), 12
@@ -92,22 +94,14 @@ def euler_rate_matrix_sx(eta: ca.SX) -> ca.SX:
 # --------------------------------------------------------------------------- ODEs
 
 
-def state_size(vehicle: Vehicle) -> tuple[int, int]:
-    """(nx, nu) of the vehicle's model."""
-    if isinstance(vehicle, Multirotor):
-        n = len(vehicle.rotors)
-        return 12 + n, n
-    return 6, 3
-
-
 def _sparse_dm(a: np.ndarray) -> ca.DM:
     return ca.sparsify(ca.DM(a))
 
 
 def multirotor_ode(vehicle: Multirotor) -> ca.Function:
     """``f(x, u) -> ẋ`` as an SX Function (names ``x``, ``u`` → ``xdot``)."""
-    nx, nu = state_size(vehicle)
-    x = ca.SX.sym("x", nx)
+    nu = len(vehicle.rotors)
+    x = ca.SX.sym("x", 12 + nu)
     u = ca.SX.sym("u", nu)
     eta, v, w, xi = x[ATT], x[VEL], x[RATE], x[FORCE:]
     g_f, g_tau = allocation(vehicle.rotors, vehicle.c_f, vehicle.c_tau)
@@ -155,13 +149,6 @@ def point_mass_ode_np(vehicle: PointMass) -> Callable[[np.ndarray, np.ndarray], 
     return f
 
 
-def vehicle_ode(vehicle: Vehicle) -> ca.Function:
-    """The continuous ODE of either vehicle kind."""
-    if isinstance(vehicle, Multirotor):
-        return multirotor_ode(vehicle)
-    return point_mass_ode(vehicle)
-
-
 # --------------------------------------------------------------------------- bounds, start
 
 
@@ -173,24 +160,6 @@ class Bounds:
     x_hi: np.ndarray
     u_lo: np.ndarray
     u_hi: np.ndarray
-
-
-def bounds(vehicle: Vehicle) -> Bounds:
-    """Multirotor: force_min ≤ ξ_i ≤ force_max, |ξ̇_i| ≤ dforce_max (if given).
-    Point mass: |v_j| ≤ vel_max_j, |a_j| ≤ acc_max_j per axis."""
-    nx, nu = state_size(vehicle)
-    x_lo, x_hi = np.full(nx, -np.inf), np.full(nx, np.inf)
-    u_lo, u_hi = np.full(nu, -np.inf), np.full(nu, np.inf)
-    if isinstance(vehicle, Multirotor):
-        x_lo[FORCE:], x_hi[FORCE:] = vehicle.force_min, vehicle.force_max
-        if vehicle.dforce_max is not None:
-            u_lo[:], u_hi[:] = -vehicle.dforce_max, vehicle.dforce_max
-    else:
-        vmax = np.asarray(vehicle.vel_max, dtype=float)
-        amax = np.asarray(vehicle.acc_max, dtype=float)
-        x_lo[3:6], x_hi[3:6] = -vmax, vmax
-        u_lo[:], u_hi[:] = -amax, amax
-    return Bounds(x_lo, x_hi, u_lo, u_hi)
 
 
 def hover_forces(vehicle: Multirotor, *, check_bounds: bool = True) -> np.ndarray:
@@ -218,21 +187,6 @@ def hover_forces(vehicle: Multirotor, *, check_bounds: bool = True) -> np.ndarra
             f"[{vehicle.force_min}, {vehicle.force_max}] N: needs {np.round(xi, 4).tolist()} N"
         )
     return xi
-
-
-def initial_state(vehicle: Vehicle) -> np.ndarray:
-    """The declared start state; a multirotor starts with its hover forces."""
-    if isinstance(vehicle, Multirotor):
-        return np.concatenate(
-            [
-                vehicle.start_pos,
-                vehicle.start_att,
-                vehicle.start_vel,
-                vehicle.start_rate,
-                hover_forces(vehicle, check_bounds=False),
-            ]
-        ).astype(float)
-    return np.concatenate([vehicle.start_pos, vehicle.start_vel]).astype(float)
 
 
 # --------------------------------------------------------------------------- discretisation
@@ -275,12 +229,13 @@ def euler_step(f: ca.Function, dt: float, substeps: int = 1) -> ca.Function:
 
 
 def discrete_dynamics(
-    vehicle: Vehicle, dt: float, method: str = "rk4", substeps: int = 1
+    f: ca.Function, dt: float, method: str = "rk4", substeps: int = 1
 ) -> ca.Function:
-    """Convenience: the discrete step of the vehicle's ODE (``method`` "rk4" or "euler")."""
+    """Convenience: the discrete step of the ODE ``f`` (``method`` "rk4" or "euler"); a
+    vehicle's ODE is ``stlc.vehicles.model_of(v).ode(v)``."""
     if method not in ("rk4", "euler"):
         raise ValueError(f'method must be "rk4" or "euler", got {method!r}')
-    return _step(vehicle_ode(vehicle), dt, substeps, "F", rk4=method == "rk4")
+    return _step(f, dt, substeps, "F", rk4=method == "rk4")
 
 
 # --------------------------------------------------------------------------- energy
@@ -371,40 +326,3 @@ def forward_speed_cost(X: np.ndarray, v_star: float, eps: float = 1e-3) -> float
 def rotor_speed_hz(vehicle: Multirotor, xi: np.ndarray) -> np.ndarray:
     """Rotor speed (Hz) from force: √(ξ/c_f) (Ω = ξ/c_f is the squared speed; ξ < 0 → 0)."""
     return np.sqrt(np.maximum(np.asarray(xi, dtype=float), 0.0) / vehicle.c_f)
-
-
-def derived_channels(vehicle: Vehicle, X: np.ndarray) -> dict[str, np.ndarray]:
-    """Signals computed from a state trajectory ``X`` (n_samples × nx).
-
-    ``<v>.speed`` ‖v‖, ``<v>.course`` atan2(v_y, v_x) (0 at rest), and for a multirotor
-    ``<v>.heading`` = yaw and ``<v>.rotor_speed.{1..n}`` in Hz.
-    """
-    X = np.atleast_2d(np.asarray(X, dtype=float))
-    name = vehicle.name
-    vel = X[:, VEL] if isinstance(vehicle, Multirotor) else X[:, 3:6]
-    out = {
-        f"{name}.speed": np.linalg.norm(vel, axis=1),
-        f"{name}.course": np.arctan2(vel[:, 1], vel[:, 0]),
-    }
-    if isinstance(vehicle, Multirotor):
-        out[f"{name}.heading"] = X[:, 5].copy()
-        speeds = rotor_speed_hz(vehicle, X[:, FORCE:])
-        for i in range(speeds.shape[1]):
-            out[f"{name}.rotor_speed.{i + 1}"] = speeds[:, i]
-    return out
-
-
-def derived_channels_sx(vehicle: Vehicle, x: ca.SX, eps: float = 0.0) -> dict[str, ca.SX]:
-    """SX versions of ``derived_channels`` for one state sample (same names).  ``eps`` > 0
-    smooths ‖v‖ and √ξ at zero as √(· + ε²)."""
-    name = vehicle.name
-    vel = x[VEL] if isinstance(vehicle, Multirotor) else x[3:6]
-    out = {
-        f"{name}.speed": ca.sqrt(ca.dot(vel, vel) + eps**2),
-        f"{name}.course": ca.atan2(vel[1], vel[0]),
-    }
-    if isinstance(vehicle, Multirotor):
-        out[f"{name}.heading"] = x[5]
-        for i in range(len(vehicle.rotors)):
-            out[f"{name}.rotor_speed.{i + 1}"] = ca.sqrt(x[FORCE + i] / vehicle.c_f + eps**2)
-    return out

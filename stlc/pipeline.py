@@ -68,15 +68,15 @@ def monitored_formulas(program: model.Program) -> dict[str, ir.Formula]:
 
 def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
     """Exact robustness of every monitored formula on a trace (``stlc.trace.Trace``)."""
-    from stlc import monitor
+    from stlc import monitor_demand
     from stlc.trace import check_signals
 
     formulas = monitored_formulas(program)
     # all at once: named specs share subformulas (a chain of hundreds of specs, each using
     # the previous one, is evaluated in linear time and without recursion)
     check_signals(trace, ir.signals(ir.And(tuple(formulas.values()))))
-    values = monitor.robustness_many(list(formulas.values()), trace.dt, trace.channels,
-                                     program.params, n=trace.n)
+    values = monitor_demand.robustness_many(list(formulas.values()), trace.dt,
+                                            trace.channels, program.params, n=trace.n)
     out = {}
     for name, v in zip(formulas, values):
         r = float(v)

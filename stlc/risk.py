@@ -3,9 +3,9 @@
 The plan (channels) is fixed; the human pose is drawn K times (``stlc.sampling``) and the
 robustness ρ of the requirement and of every named spec is evaluated for all K realisations
 at once through the monitor's parameter broadcasting, in one shared, demand-driven
-evaluation (``shared_robustness``: ``stlc.monitor.Demand`` and ``stlc.smooth.SmoothDemand``
-over chunks of realisations).  The risk measures are defined on the
-*cost* Z = −ρ, as in the paper, and reported back in robustness terms.
+evaluation (``shared_robustness``: ``stlc.monitor_demand.Demand`` and
+``stlc.smooth_demand.SmoothDemand`` over chunks of realisations).  The risk measures are
+defined on the *cost* Z = −ρ, as in the paper, and reported back in robustness terms.
 
 Conventions (r_(1) ≤ … ≤ r_(K) are the sorted robustness samples, F̂ the empirical CDF of ρ)
 ----------------------------------------------------------------------------------------
@@ -197,16 +197,16 @@ def shared_robustness(formulas: Mapping[str, Formula], dt: float,
     """Exact (and smooth) robustness at t = 0 of every formula for the K realisations of
     ``params`` in one shared evaluation: a node common to several formulas (a named spec
     inside the requirement, a predicate, the human-frame coordinates) is computed once,
-    only on the samples its parents need (``monitor.Plan``), and the smooth pass reuses the
-    exact pass's predicate values.  Realisations are processed ``chunk`` at a time.
+    only on the samples its parents need (``monitor_demand.Plan``), and the smooth pass
+    reuses the exact pass's predicate values.  Realisations are processed ``chunk`` at a time.
     Returns ``(exact, smooth)``, each ``{key: (K,) array}`` (smooth empty without it)."""
-    from stlc import ir
-    from stlc.monitor import Demand, Plan
-    from stlc.smooth import SmoothDemand
+    from stlc import nnf
+    from stlc.monitor_demand import Demand, Plan
+    from stlc.smooth_demand import SmoothDemand
 
     keys = list(formulas)
     n = len(next(iter(channels.values())))
-    plan = Plan([ir.normalize(formulas[k]) for k in keys], dt, n)
+    plan = Plan([nnf.normalize(formulas[k]) for k in keys], dt, n)
     exact = {k: np.empty(K) for k in keys}
     smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
     for lo in range(0, K, chunk):

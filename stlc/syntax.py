@@ -1,18 +1,14 @@
 """Parsing: `.stl` source text → ``stlc.ast.File`` (Lark LALR, one cached parser).
 
 The grammar lives in ``grammar/stl.lark`` (shipped inside the package as
-``stlc/grammar/stl.lark``).  A small post-lexer makes the language line-oriented without
-making formulas painful: it drops line ends inside brackets, after binary operators and
-before continuation keywords, collapses blank lines, and inserts the line ends that a
-closing ``}`` or the end of the file imply (not after a trailing ``{`` or operator: that file
-ends too early).  Syntax errors become diagnostics
+``stlc/grammar/stl.lark``).  A small post-lexer (``stlc.postlex``) makes the language
+line-oriented without making formulas painful.  Syntax errors become diagnostics
 (``STL001``–``STL006``); nothing here raises anything but ``StlcError``.
 """
 
 from __future__ import annotations
 
 import functools
-import re
 from importlib import resources
 from pathlib import Path as FsPath
 
@@ -21,19 +17,10 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from stlc import ast
 from stlc.diagnostics import Diagnostic, Span, StlcError, normalize_newlines, source_lines
+from stlc.postlex import MAX_DEPTH, DepthError, PostLex
 
-MAX_DEPTH = 100  # bracket nesting
 MAX_TREE_DEPTH = 200  # parse-tree nesting (`not not …`, `a ^ b ^ …`, long `+` chains)
 MAX_LINE = 10_000  # characters per line
-
-# possessive (no backtracking): a run of `#` characters can be split into comments in
-# exponentially many ways, and the old `(?:\s|#[^\n]*)*` tried them all
-CONTINUE_BEFORE = re.compile(r"(?:\s++|#[^\n]*+)*+(?:and|or|implies|until)\b")
-CONTINUE_AFTER = {"AND", "OR", "IMPLIES", "UNTIL", "NOT", "ALWAYS", "EVENTUALLY", "NEXT",
-                  "EQUAL", "COMMA", "COLON", "TILDE", "PLUS", "MINUS", "STAR", "SLASH",
-                  "CIRCUMFLEX", "CMP", "IN", "LBRACE", "REQUIRE", "MINIMIZE", "MAXIMIZE"}
-OPEN = {"LPAR", "LSQB"}
-CLOSE = {"RPAR", "RSQB"}
 
 
 def grammar_text() -> str:
@@ -44,75 +31,7 @@ def grammar_text() -> str:
     return repo.read_text(encoding="utf-8")
 
 
-class _DepthError(Exception):
-    def __init__(self, token: Token):
-        self.token = token
-
-
-class _PostLex:
-    """Line handling between the lexer and the LALR parser (see module docstring)."""
-
-    always_accept = ("_NL", "RBRACE")
-
-    def __init__(self) -> None:
-        self.text = ""  # the source being parsed, for looking past a line end
-        self.last: Token | None = None  # the last real token, for errors at the end of file
-        self.open: list[Token] = []  # brackets and braces not closed yet, innermost last
-
-    def _continues(self, nl: Token) -> bool:
-        """Does the next line start with `and`, `or`, `implies` or `until`?"""
-        return CONTINUE_BEFORE.match(self.text, nl.end_pos or 0) is not None
-
-    def process(self, stream):
-        depth = 0
-        prev: Token | None = None
-        self.last, self.open = None, []
-
-        def nl_like(tok: Token) -> Token:
-            return Token.new_borrow_pos("_NL", "\n", tok)
-
-        for tok in stream:
-            if tok.type == "_NL":
-                if depth > 0 or prev is None or prev.type == "_NL":
-                    continue
-                if prev.type in CONTINUE_AFTER or self._continues(tok):
-                    continue
-                yield tok
-                prev = tok
-                continue
-            self.last = tok
-            if tok.type == "RBRACE":
-                if prev is not None and prev.type not in ("_NL", "LBRACE"):
-                    yield nl_like(tok)
-                if self.open and self.open[-1].type == "LBRACE":
-                    self.open.pop()
-                yield tok
-                # A `}` ends its member at once: the contextual lexer reads the next token in
-                # the parser state after this line end, where a name may start a member
-                # (`a { } b { }`).  A real line end that follows is then dropped above.
-                prev = nl_like(tok)
-                yield prev
-                continue
-            if tok.type == "LBRACE":
-                self.open.append(tok)
-            elif tok.type in OPEN:
-                self.open.append(tok)
-                depth += 1
-                if depth > MAX_DEPTH:
-                    raise _DepthError(tok)
-            elif tok.type in CLOSE:
-                depth = max(0, depth - 1)
-                if self.open and self.open[-1].type in OPEN:
-                    self.open.pop()
-            yield tok
-            prev = tok
-        # the end of the file ends the last line, unless that line asks for more (a trailing
-        # `{`, `,` or operator): then the parser reports an unexpected end of file
-        if prev is not None and prev.type != "_NL" and prev.type not in CONTINUE_AFTER:
-            yield Token.new_borrow_pos("_NL", "\n", prev)
-
-
-_POSTLEX = _PostLex()
+_POSTLEX = PostLex()
 
 
 @functools.cache
@@ -479,7 +398,7 @@ def parse(text: str, file: str = "<input>") -> ast.File:
         if _tree_depth(tree) > MAX_TREE_DEPTH:  # an explicit limit, not the recursion limit
             raise StlcError([_too_deep(file, tree)])
         members = _Builder(file).transform(tree)
-    except _DepthError as e:
+    except DepthError as e:
         t = e.token
         raise StlcError([Diagnostic("STL004", f"brackets nested more than {MAX_DEPTH} deep",
                                     Span(file, t.line, t.column, t.line, t.column + 1),

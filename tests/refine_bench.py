@@ -12,13 +12,12 @@ from __future__ import annotations
 import sys
 import time
 
+from stlc import monitor, nnf
+from stlc.pipeline import load
 from stlc.team.milp import assign
 from stlc.team.payload import payload_team
-from stlc.team.seed import scenario_from_program, seed_plan
-
-from stlc import ir, monitor
-from stlc.pipeline import load
 from stlc.team.refine import refine
+from stlc.team.seed import scenario_from_program, seed_plan
 
 
 def main(path: str, eta: float = 0.0, own_seed: bool = False) -> None:
@@ -47,9 +46,9 @@ def main(path: str, eta: float = 0.0, own_seed: bool = False) -> None:
                 ch[f"{d}.pos.{a}"] = plan.pos[d][:, j]
                 ch[f"{d}.vel.{a}"] = plan.vel[d][:, j]
             ch[f"{d}.payload"] = payload[d].astype(float)
-        rho = {n: float(monitor.robustness(ir.normalize(f), sc.step, ch, program.params))
+        rho = {n: float(monitor.robustness(nnf.normalize(f), sc.step, ch, program.params))
                for n, f in mission.specs.items()}
-        rho["ALL"] = float(monitor.robustness(ir.normalize(mission.requirement), sc.step, ch,
+        rho["ALL"] = float(monitor.robustness(nnf.normalize(mission.requirement), sc.step, ch,
                                               program.params))
         print(f"{mission.name} eta={eta}: refine cpu {c2 - c1:.2f} s (build "
               f"{st['build_cpu_s']:.2f}, solve {st['solve_cpu_s']:.2f}), "

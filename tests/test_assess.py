@@ -14,13 +14,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import cases, formulas
 
-from stlc import cli, ir, monitor, smooth
+from stlc import cli, ir, monitor, nnf, smooth
 from stlc.assess import risk_table, run_risk
 from stlc.ir import Always, And, Bin, Const, Eventually, Param, Pred, Sig, Until
-from stlc.monitor import Demand, Plan, robustness_many
+from stlc.monitor_demand import Demand, Plan, robustness_many
 from stlc.pipeline import load
 from stlc.risk import robustness_histogram, shared_robustness
-from stlc.smooth import SmoothDemand, smooth_robustness_many
+from stlc.smooth_demand import SmoothDemand, smooth_robustness_many
 from stlc.solution import Solution
 
 # A point-mass vehicle that sits at one point for 1 s, next to an operator whose region
@@ -298,7 +298,7 @@ def test_smooth_demand_matches_the_reference(case, data, lam, method):
 
 def test_smooth_shares_the_exact_predicates():
     ch = {"x": np.linspace(-1, 1, 21)}
-    f = ir.normalize(Eventually(0.5, 1.5, Pred(Bin("-", Sig("x"), Param("p")))))
+    f = nnf.normalize(Eventually(0.5, 1.5, Pred(Bin("-", Sig("x"), Param("p")))))
     plan = Plan([f], 0.1, 21)
     ex = Demand(plan, ch, PA)
     ex.values()

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from stlc import ir
+from stlc import ir, nnf
 from stlc.pipeline import load
 from stlc.planning.bounds import bound_specs, plot_bounds, stated_bounds
 from stlc.planning.problem import from_mission
@@ -18,7 +18,7 @@ SPECS = Path(__file__).resolve().parent.parent / "specs"
 def test_handover_bounds_from_predicate_structure():
     program = load(str(SPECS / "handover.stl")).program
     m = program.missions["handover_left_tb"]
-    got = stated_bounds(ir.normalize(m.requirement))
+    got = stated_bounds(nnf.normalize(m.requirement))
     assert got["speed"] == [0.0, pytest.approx(0.4)]
     assert got["rotor_speed"] == [pytest.approx(40.0), pytest.approx(80.0)]
     assert got["heading_margin_deg"] == pytest.approx(30.0)
@@ -38,9 +38,9 @@ def test_bound_follows_negation_and_constant_side(tmp_path):
     src.write_text("signal x\nspec a = always (2 >= x)\nspec b = not (x in [1, 3])\n",
                    encoding="utf-8")
     program = load(str(src)).program
-    (pa,) = ir.predicates(ir.normalize(program.specs["a"]))
+    (pa,) = ir.predicates(nnf.normalize(program.specs["a"]))
     assert (pa.bound.signal, pa.bound.side, pa.bound.value) == ("x", "upper", 2.0)
-    lo, hi = ir.predicates(ir.normalize(program.specs["b"]))
+    lo, hi = ir.predicates(nnf.normalize(program.specs["b"]))
     # not (1 <= x <= 3) = x < 1 or x > 3: the sides swap, the values stay
     assert {(p.bound.side, p.bound.value) for p in (lo, hi)} == {("upper", 1.0),
                                                                   ("lower", 3.0)}
@@ -49,4 +49,4 @@ def test_bound_follows_negation_and_constant_side(tmp_path):
 def test_team_separation_bound():
     program = load(str(SPECS / "bird_diverter_2x7.stl")).program
     m = next(iter(program.missions.values()))
-    assert stated_bounds(ir.normalize(m.requirement))["distance_min"] == pytest.approx(3.0)
+    assert stated_bounds(nnf.normalize(m.requirement))["distance_min"] == pytest.approx(3.0)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from stlc import ir, monitor
+from stlc import monitor, nnf
 from stlc.cli import main
 from stlc.pipeline import load
 from stlc.trace import read_trace
@@ -73,7 +73,7 @@ def recheck(stl: Path, outdir: Path, mission_name: str) -> tuple[float, dict]:
     the solution.json it should agree with."""
     program = load(str(stl)).program
     trace = read_trace(outdir / "trajectory.csv")
-    f = ir.normalize(program.missions[mission_name].requirement)
+    f = nnf.normalize(program.missions[mission_name].requirement)
     r = float(monitor.robustness(f, trace.dt, trace.channels, program.params))
     return r, json.loads((outdir / "solution.json").read_text(encoding="utf-8"))
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from stlc import dynamics, ir, model, monitor
+from stlc import dynamics, model, monitor, nnf, vehicles
 from stlc.diagnostics import StlcError
 from stlc.pipeline import compile_file, load, plan
 from stlc.trace import read_trace
@@ -93,7 +93,7 @@ def test_known_optimal_robustness(tmp_path, name, require, horizon, optimum, goo
     assert sol.specs["goal"].satisfied
     assert sol.specs["goal"].robustness == pytest.approx(sol.robustness_exact, abs=1e-12)
     # the exact monitor on the returned channels agrees with the Solution
-    f = ir.normalize(program.missions["m"].requirement)
+    f = nnf.normalize(program.missions["m"].requirement)
     assert monitor.robustness(f, 0.1, sol.channels) == pytest.approx(sol.robustness_exact)
     # the plan respects the vehicle's bounds and start state
     vx = np.asarray(sol.channels["p.vel.x"])
@@ -225,7 +225,7 @@ def interval_defects(trace, v: model.Multirotor, method: str) -> np.ndarray:
     X = np.column_stack([trace.channels[c] for c in v.channels()])
     U = np.column_stack([trace.channels[c] for c in v.input_channels()])
     assert X.shape == (trace.n, 12 + len(v.rotors))
-    np.testing.assert_allclose(X[0], dynamics.initial_state(v), atol=1e-8)
+    np.testing.assert_allclose(X[0], vehicles.model_of(v).initial_state(v), atol=1e-8)
     F = X[:, 12:]  # the plan stays inside the rotor-force bounds
     assert F.min() >= v.force_min - 1e-6 and F.max() <= v.force_max + 1e-6
     out = []

@@ -25,7 +25,8 @@ import pytest
 
 from stlc.check import check
 from stlc.diagnostics import CODES, Diagnostic, StlcError, render_all
-from stlc.syntax import MAX_DEPTH, MAX_LINE, decode, parse, parse_file
+from stlc.postlex import MAX_DEPTH
+from stlc.syntax import MAX_LINE, decode, parse, parse_file
 
 FIXTURES = Path(__file__).parent / "diagnostics"
 FILES = sorted(FIXTURES.glob("*.stl"))

@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 from stlc import dynamics as dyn
 from stlc import geometry as geo
 from stlc.model import Multirotor, PointMass, Rotor
+from stlc.vehicles import model_of
 
 # paper A, Table 3 (arm and tilt are not published; ≈ 0.39 m and 20° are our choice)
 MASS, C_F, C_TAU = 2.25, 11.5e-4, 2.38e-5
@@ -281,27 +282,28 @@ def test_rk4_map_matches_single_calls(hexa, hexa_f):
 
 def test_point_mass_dynamics_and_bounds():
     pm = PointMass("d", vel_max=(3.1, 3.1, 2.0), acc_max=(3.1, 3.1, 1.0), start_pos=(0, 0, 1))
-    step = dyn.discrete_dynamics(pm, 0.05)
+    step = dyn.discrete_dynamics(model_of(pm).ode(pm), 0.05)
     x, a = np.array([1, 2, 3, 0.5, -0.5, 0.1]), np.array([1.0, -2.0, 0.3])
     dt = 0.05
     expected = np.concatenate([x[:3] + dt * x[3:] + 0.5 * dt**2 * a, x[3:] + dt * a])
     np.testing.assert_allclose(np.array(step(x, a)).ravel(), expected, atol=1e-15)
-    b = dyn.bounds(pm)
+    b = model_of(pm).bounds(pm)
     np.testing.assert_array_equal(b.x_hi, [np.inf] * 3 + [3.1, 3.1, 2.0])
     np.testing.assert_array_equal(b.x_lo[3:], [-3.1, -3.1, -2.0])
     np.testing.assert_array_equal(b.u_hi, [3.1, 3.1, 1.0])
     np.testing.assert_array_equal(b.u_lo, [-3.1, -3.1, -1.0])
-    np.testing.assert_array_equal(dyn.initial_state(pm), [0, 0, 1, 0, 0, 0])
+    np.testing.assert_array_equal(model_of(pm).initial_state(pm), [0, 0, 1, 0, 0, 0])
 
 
 def test_multirotor_bounds_and_initial_state(hexa):
-    b = dyn.bounds(multirotor(hexa.rotors, dforce_max=20.0))
+    mr = multirotor(hexa.rotors, dforce_max=20.0)
+    b = model_of(mr).bounds(mr)
     np.testing.assert_array_equal(b.x_lo[12:], 0.29)
     np.testing.assert_array_equal(b.x_hi[12:], 11.5)
     assert np.all(np.isinf(b.x_lo[:12]))
     np.testing.assert_array_equal(b.u_hi, 20.0)
-    assert np.all(np.isinf(dyn.bounds(hexa).u_hi))
-    x0 = dyn.initial_state(hexa)
+    assert np.all(np.isinf(model_of(hexa).bounds(hexa).u_hi))
+    x0 = model_of(hexa).initial_state(hexa)
     assert x0.shape == (len(hexa.channels()),)
     np.testing.assert_allclose(x0[:3], [-1.8, 0, 1])
     np.testing.assert_allclose(x0[12:], dyn.hover_forces(hexa))
@@ -317,7 +319,7 @@ def test_energy_at_hover_by_hand(hexa):
     p_hover = 6 * C_TAU * omega * 2 * math.pi * math.sqrt(omega)  # torque × angular speed
     assert math.isclose(dyn.hover_power(hexa), p_hover, rel_tol=1e-12)
     assert 150 < p_hover < 200  # ≈ 178 W
-    X = np.tile(dyn.initial_state(hexa), (n, 1))
+    X = np.tile(model_of(hexa).initial_state(hexa), (n, 1))
     assert math.isclose(dyn.energy(hexa, X, dt), n, rel_tol=1e-12)
     assert math.isclose(dyn.energy(hexa, X, dt, normalize=False), n * dt * p_hover, rel_tol=1e-12)
     # moving at 0.4 m/s adds ½ m v² per sample
@@ -359,12 +361,12 @@ def test_forward_speed_term():
 
 
 def test_derived_channels(hexa):
-    X = np.tile(dyn.initial_state(hexa), (3, 1))
+    X = np.tile(model_of(hexa).initial_state(hexa), (3, 1))
     X[1, 6:9] = [0.0, 0.3, 0.4]
     X[2, 6:9] = [-1.0, 0.0, 0.0]
     X[:, 5] = [0.1, 0.2, -3.0]
     X[2, 12] = 11.5
-    d = dyn.derived_channels(hexa, X)
+    d = model_of(hexa).derived_channels(hexa, X)
     assert set(d) == {"h.speed", "h.heading", "h.course"} | {
         f"h.rotor_speed.{i}" for i in range(1, 7)
     }
@@ -374,11 +376,11 @@ def test_derived_channels(hexa):
     np.testing.assert_allclose(d["h.rotor_speed.1"][2], 100.0)  # √(11.5 / 11.5e-4)
     np.testing.assert_allclose(d["h.rotor_speed.2"], 58.34562672, rtol=1e-9)
     x = ca.SX.sym("x", 18)
-    sx = dyn.derived_channels_sx(hexa, x)
+    sx = model_of(hexa).derived_channels_sx(hexa, x)
     assert set(sx) == set(d)
     fun = ca.Function("d", [x], [sx[k] for k in sorted(sx)])
     for k_row in range(3):
         for name, val in zip(sorted(sx), fun(X[k_row]), strict=True):
             assert math.isclose(float(val), d[name][k_row], abs_tol=1e-12)
     pm = PointMass("p", vel_max=(1, 1, 1), acc_max=(1, 1, 1), start_pos=(0, 0, 0))
-    assert set(dyn.derived_channels(pm, np.zeros((2, 6)))) == {"p.speed", "p.course"}
+    assert set(model_of(pm).derived_channels(pm, np.zeros((2, 6)))) == {"p.speed", "p.course"}

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import DTS, cases, formulas, traces
 
-from stlc import ir, monitor
+from stlc import ir, monitor, nnf
 from stlc.ir import (
     Always,
     And,
@@ -181,7 +181,7 @@ def test_monitor_matches_brute_force(case):
 @given(cases(next_=False))
 def test_normalize_preserves_robustness(case):
     f, dt, ch = case
-    nf = ir.normalize(f)
+    nf = nnf.normalize(f)
     assert all(isinstance(g, ir.NNF_NODES) for g in _nodes(nf))
     close(bf_signal(nf, dt, ch), bf_signal(f, dt, ch))
     close(robustness_signal(nf, dt, ch), robustness_signal(f, dt, ch))
@@ -218,7 +218,7 @@ def test_param_arrays_broadcast(case, ps, qs):
     singles = np.array([robustness_signal(f, dt, ch, {"p": ps[i], "q": qs[i]})
                         for i in range(k)])
     close(np.broadcast_to(many, singles.shape), singles)
-    uses = bool(ir.params(ir.normalize(f)))
+    uses = bool(ir.params(nnf.normalize(f)))
     assert many.shape == ((k, len(ch["x"])) if uses else (len(ch["x"]),))
     close(np.broadcast_to(robustness(f, dt, ch, pa), (k,)), singles[:, 0])
 

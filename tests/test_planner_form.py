@@ -17,7 +17,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from stlc import ir, monitor
+from stlc import ir, monitor, nnf
 from stlc.backends import casadi_expr as cx
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
@@ -54,7 +54,7 @@ def comfort() -> ir.Formula:
 
 
 def reach_avoid() -> ir.Formula:
-    avoid = ir.normalize(ir.Not(_box((-1.0, -1.0), (0.0, 1.0))))
+    avoid = nnf.normalize(ir.Not(_box((-1.0, -1.0), (0.0, 1.0))))
     return And((Always(0, 1, avoid), Eventually(0, 1, _box((0.5, 0.5), (0.8, 0.9)))))
 
 
@@ -76,7 +76,7 @@ def traces(draw):
 @given(ch=traces(), kappa=st.sampled_from([0.0, 0.01, 0.05]),
        which=st.sampled_from(["comfort", "reach_avoid"]))
 def test_planner_form_keeps_the_sign_of_rho_minus_kappa(ch, kappa, which):
-    f = ir.normalize(comfort() if which == "comfort" else reach_avoid())
+    f = nnf.normalize(comfort() if which == "comfort" else reach_avoid())
     exact = monitor.robustness(f, 0.5, ch)
     assume(abs(exact - kappa) > 1e-6)
     planned = monitor.robustness(cx.planner_form(f, kappa), 0.5, ch)
@@ -95,7 +95,7 @@ def test_planner_form_scales_box_faces_by_half_width():
 
 
 def test_heading_planner_form_is_smooth_and_zero_at_hover():
-    e = cx.planner_form(ir.normalize(comfort()), 0.0).arg.args[3].args[0].expr
+    e = cx.planner_form(nnf.normalize(comfort()), 0.0).arg.args[3].args[0].expr
     vx, vy, psi = ca.SX.sym("vx"), ca.SX.sym("vy"), ca.SX.sym("psi")
     env = cx.ExprEnv({"vx": vx, "vy": vy, "psi": psi}, {}, 10.0)
     v = cx.lower_expr(e, env)

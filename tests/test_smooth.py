@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from strategies import cases
 from test_monitor import bf_expr, window
 
-from stlc import ir, smooth
+from stlc import ir, nnf, smooth
 from stlc.ir import Always, And, Bin, Const, Eventually, Not, Or, Pred, Release, Sig, TrueF, Until
 from stlc.monitor import robustness_signal
 from stlc.smooth import smooth_robustness, smooth_robustness_signal
@@ -88,7 +88,7 @@ def bf_smooth(f, k, dt, ch, lam, method):
        st.sampled_from(["gkl", "lse"]))
 def test_matches_loop_implementation(case, lam, method):
     f, dt, ch = case
-    nf = ir.normalize(f)
+    nf = nnf.normalize(f)
     want = [bf_smooth(nf, k, dt, ch, lam, method) for k in range(len(ch["x"]))]
     got = smooth_robustness_signal(f, dt, ch, lam=lam, method=method)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
@@ -188,7 +188,7 @@ def test_stable_for_large_values(case, seed):
 def test_normalize_and_negation(case):
     f, dt, ch = case
     a = smooth_robustness_signal(f, dt, ch, lam=5.0)
-    b = smooth_robustness_signal(ir.normalize(f), dt, ch, lam=5.0)
+    b = smooth_robustness_signal(nnf.normalize(f), dt, ch, lam=5.0)
     np.testing.assert_array_equal(a, b)
 
 

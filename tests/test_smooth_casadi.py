@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from strategies import cases
 
-from stlc import ir
+from stlc import ir, nnf
 from stlc.backends import casadi_expr as cx
 from stlc.backends.smooth_casadi import LOWER, lower_robustness
 from stlc.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
@@ -196,7 +196,7 @@ def test_dyadic_blocks_shrink_sliding_windows():
        pval=st.sampled_from([-0.5, 0.0, 1.25]))
 def test_matches_naive_reference(case, lam, method, lift_span, dyadic, hypograph, pval):
     f, dt, ch = case
-    f = ir.normalize(f)
+    f = nnf.normalize(f)
     par = {"p": pval}
     grid = TimeGrid(dt, len(ch["x"]) - 1)
     ref = ref_rho(f, dt, ch, par, lam, method)
@@ -225,7 +225,7 @@ def test_gkl_is_sound(case, lam):
     from stlc import monitor
 
     f, dt, ch = case
-    f = _replace_preds(ir.normalize(f), lambda p: _calls(p.expr) & {"min", "max", "abs", "sqrt"})
+    f = _replace_preds(nnf.normalize(f), lambda p: _calls(p.expr) & {"min", "max", "abs", "sqrt"})
     exact = monitor.robustness(f, dt, ch)
     preds = [monitor.eval_expr(p.expr, ch) for p in ir.predicates(f)]
     if not math.isfinite(exact) or any(np.any(np.abs(v) >= BIG / 10) for v in preds):
@@ -268,7 +268,7 @@ def _calls(e: ir.Expr) -> set[str]:
        seed=st.integers(0, 2**31 - 1))
 def test_gradient_matches_finite_differences(case, lam, method, seed):
     f, dt, ch = case
-    f = ir.normalize(f)
+    f = nnf.normalize(f)
     rng = np.random.default_rng(seed)
     ch = {s: rng.uniform(-2.0, 2.0, size=len(v)) for s, v in ch.items()}  # generic point
     grid = TimeGrid(dt, len(ch["x"]) - 1)
@@ -325,7 +325,7 @@ def test_matches_numpy_reference_on_random_formulas(case, lam, method):
     (the reference evaluates expressions exactly, we smooth them)."""
     smooth = pytest.importorskip("stlc.smooth")
     f, dt, ch = case
-    f = _replace_preds(ir.normalize(f),
+    f = _replace_preds(nnf.normalize(f),
                        lambda p: _calls(p.expr) & {"min", "max", "abs", "sqrt", "atan2"})
     par = {"p": 0.75}
     ref = float(smooth.smooth_robustness(f, dt, ch, par, lam, method))
@@ -343,7 +343,7 @@ def test_matches_numpy_reference_if_present():
     x, y = Sig("x"), Sig("y")
     box = And((Pred(Bin("-", x, Const(-0.5))), Pred(Bin("-", Const(1.0), x)),
                Pred(Bin("-", y, Const(0.0)))))
-    f = ir.normalize(And((Always(0.0, 1.0, box), Eventually(0.0, 0.8, Always(0.0, 0.5, box)),
+    f = nnf.normalize(And((Always(0.0, 1.0, box), Eventually(0.0, 0.8, Always(0.0, 0.5, box)),
                           ir.Until(0.0, 0.7, Pred(Bin("-", x, y)), box),
                           ir.Implies(Pred(Bin("-", y, Const(1.0))),
                                      Eventually(0.0, 0.4, Pred(Bin("-", x, Const(0.2))))))))
@@ -456,7 +456,7 @@ def _benchmark_problem(lift: bool, dyadic: bool, lam: float = 50.0, solve: bool 
 
     corridor = box((-1.0, -1.0, 0.0), (6.0, 2.0, 3.0))
     target = box((4.0, 0.0, 1.0), (5.0, 1.0, 2.0))
-    f = ir.normalize(And((Always(0.0, 17.0, corridor),
+    f = nnf.normalize(And((Always(0.0, 17.0, corridor),
                           Eventually(0.0, 12.0, Always(0.0, 5.0, target)))))
     t0 = time.perf_counter()
     lr = lower_robustness(f, grid, chans, {}, lam, lift=lift, dyadic=dyadic,

@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics, ir, model
+from stlc import dynamics, ir, model, nnf, vehicles
 from stlc.backends.casadi_expr import planner_form
-from stlc.backends.smooth_casadi import LoweredRobustness, lower_robustness
+from stlc.backends.smooth_casadi import lower_robustness
+from stlc.backends.smooth_windows import LoweredRobustness
 from stlc.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
@@ -67,14 +68,15 @@ def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") ->
     for L in inv.layouts:
         X = np.asarray(w[L.x_slice]).reshape(n, L.nx).T
         U = np.asarray(w[L.u_slice]).reshape(n - 1, L.nu).T
-        F = dynamics.discrete_dynamics(L.vehicle, inv.grid.dt, integrator,
+        v = L.vehicle
+        F = dynamics.discrete_dynamics(vehicles.model_of(v).ode(v), inv.grid.dt, integrator,
                                        substeps(inv.grid.dt)).map(n - 1)
         worst = max(worst, float(np.max(np.abs(X[:, 1:] - np.asarray(F(X[:, :-1], U))))))
     return worst
 
 
 def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
-    if not isinstance(v, model.Multirotor):
+    if vehicles.model_of(v).kind != "multirotor":
         return b
     x_lo, x_hi, u_lo, u_hi = (np.array(a, dtype=float) for a in (b.x_lo, b.x_hi, b.u_lo, b.u_hi))
     x_lo[3:5], x_hi[3:5] = -ENVELOPE_TILT, ENVELOPE_TILT
@@ -193,7 +195,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     off = 0
     for name in mission.vehicles:
         v = program.vehicles[name]
-        nx, nu = dynamics.state_size(v)
+        nx, nu = vehicles.model_of(v).state_size(v)
         layouts.append(Layout(v, slice(off, off + nx * n), slice(off + nx * n,
                                                                off + nx * n + nu * N), nx, nu))
         off += nx * n + nu * N
@@ -202,7 +204,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     lam, w_rob, w_en, w_fwd = (ca.SX.sym(s) for s in ("lam", "w_rob", "w_en", "w_fwd"))
     p = ca.vertcat(lam, w_rob, w_en, w_fwd)
 
-    formula = ir.normalize(mission.requirement)
+    formula = nnf.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     planned = planner_form(formula, mission.threshold, program.params)
     lowered = lower_robustness(planned, grid, chans, program.params, lam,
@@ -217,25 +219,28 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     reg = ca.SX(0)
     for L in layouts:
         v = L.vehicle
+        vm = vehicles.model_of(v)
         X = ca.reshape(wt[L.x_slice], L.nx, n)
         U = ca.reshape(wt[L.u_slice], L.nu, N)
-        F = dynamics.discrete_dynamics(v, grid.dt, integrator, substeps(grid.dt)).map(N)
+        F = dynamics.discrete_dynamics(vm.ode(v), grid.dt, integrator,
+                                       substeps(grid.dt)).map(N)
         g_list.append(ca.vec(X[:, 1:] - F(X[:, :-1], U)))
         lbg.append(np.zeros(L.nx * N))
         ubg.append(np.zeros(L.nx * N))
-        b = envelope(v, dynamics.bounds(v))
+        b = envelope(v, vm.bounds(v))
         lbx[L.x_slice] = np.tile(b.x_lo, n)
         ubx[L.x_slice] = np.tile(b.x_hi, n)
         lbx[L.u_slice] = np.tile(b.u_lo, N)
         ubx[L.u_slice] = np.tile(b.u_hi, N)
-        x0 = dynamics.initial_state(v)
+        x0 = vm.initial_state(v)
         start = L.x_slice.start
         lbx[start:start + L.nx] = x0
         ubx[start:start + L.nx] = x0
         reg += ca.sumsqr(U) / N
-        if isinstance(v, model.Multirotor):
-            xs = ca.SX.sym("x", L.nx)
-            e_fn = ca.Function("e", [xs], [dynamics.energy_terms(v, xs, grid.dt)]).map(n)
+        xs = ca.SX.sym("x", L.nx)
+        e_x = vm.energy_terms(v, xs, grid.dt)  # None: the model has no energy
+        if e_x is not None:
+            e_fn = ca.Function("e", [xs], [e_x]).map(n)
             energy += ca.sum2(e_fn(X)) / n  # mean per sample: O(1), like ρ̃
         elif mission.objective.forward_speed:
             vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)

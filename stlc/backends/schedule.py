@@ -35,7 +35,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics, interrupt, ir, model
+from stlc import interrupt, ir, model, vehicles
 from stlc.backends.casadi_nlp import (
     PLAN_MARGIN,
     STATUS_MAP,
@@ -57,14 +57,6 @@ FIRST_STAGE_ITER = 200
 STAGE_ITER = 300
 PATIENCE = 10**9  # stages end on IPOPT's own tests (or the iteration limit), not on ours
 MAX_LAM_STAGES = 4
-GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
-GUESS_ACC = 2.0  # m/s^2
-
-
-def _kinematic_limits(v: model.Vehicle) -> tuple[np.ndarray, np.ndarray]:
-    if isinstance(v, model.PointMass):
-        return np.array(v.vel_max), np.array(v.acc_max)
-    return np.full(3, GUESS_VEL), np.full(3, GUESS_ACC)
 
 
 def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGrid,
@@ -84,7 +76,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
             chans[f"{name}.vel.{a}"] = V[i, :]
         g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
         g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
-        vmax, amax = _kinematic_limits(v)
+        vmax, amax = vehicles.model_of(v).kinematic_limits(v)
         start, vel0 = np.array(v.start_pos), np.array(getattr(v, "start_vel", (0, 0, 0)))
         plo, phi_ = np.tile(start, (n, 1)).T.copy(), np.tile(start, (n, 1)).T.copy()
         plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
@@ -141,72 +133,19 @@ def _unpack(w: np.ndarray, names: list[str], n: int, N: int
     return out
 
 
-def _yaw_along_course(V: np.ndarray, yaw0: float, dt: float) -> np.ndarray:
-    """Heading that follows the horizontal direction of motion where the vehicle moves
-    (> 0.1 m/s), holds it otherwise, unwrapped and smoothed (1 s moving average)."""
-    n = V.shape[1]
-    yaw = np.empty(n)
-    cur = yaw0
-    for k in range(n):
-        if np.hypot(V[0, k], V[1, k]) > 0.1:
-            c = np.arctan2(V[1, k], V[0, k])
-            cur = cur + np.arctan2(np.sin(c - cur), np.cos(c - cur))
-        yaw[k] = cur
-    w = max(1, int(round(1.0 / dt)))
-    pad = np.concatenate([np.full(w, yaw[0]), yaw, np.full(w, yaw[-1])])
-    smooth = np.convolve(pad, np.ones(2 * w + 1) / (2 * w + 1), mode="same")[w:-w]
-    smooth[0] = yaw0
-    return smooth
-
-
-def multirotor_guess(v: model.Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray,
-                     dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """A nearly dynamically consistent state/input guess along a kinematic path: roll and
-    pitch level, yaw along the course, rotor forces from the allocation that realise the
-    path's acceleration and yaw acceleration (least squares, clipped to the force range)."""
-    from stlc import geometry
-
-    n = P.shape[1]
-    yaw = _yaw_along_course(V, v.start_att[2], dt)
-    yaw_rate = np.gradient(yaw, dt)
-    yaw_acc = np.gradient(yaw_rate, dt)
-    W = geometry.wrench_matrix(v.rotors, v.c_f, v.c_tau)
-    Wp = np.linalg.pinv(W)
-    Jzz = np.array(v.inertia)[2, 2]
-    acc = np.hstack([A, A[:, -1:]])
-    forces = np.empty((len(v.rotors), n))
-    for k in range(n):
-        c, s = np.cos(yaw[k]), np.sin(yaw[k])
-        Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        f_body = Rz.T @ (v.mass * (acc[:, k] + np.array([0.0, 0.0, v.gravity])))
-        wrench = np.concatenate([f_body, [0.0, 0.0, Jzz * yaw_acc[k]]])
-        forces[:, k] = np.clip(Wp @ wrench, v.force_min, v.force_max)
-    X = np.zeros((12 + len(v.rotors), n))
-    X[0:3], X[6:9] = P, V
-    X[3:5] = 0.0
-    X[5] = yaw
-    X[11] = yaw_rate
-    X[12:] = forces
-    X[:, 0] = dynamics.initial_state(v)
-    U = np.diff(X[12:], axis=1) / dt
-    return X, U
-
-
 def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
                kin: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], lam: float
                ) -> np.ndarray:
-    """Decision vector from the kinematic path (see ``multirotor_guess``)."""
+    """Decision vector from the kinematic path (see the vehicle model's ``guess``)."""
     w = np.zeros(prob.n_vars)
     for L in inv.layouts:
         v = L.vehicle
         P, V, A = kin[v.name]
-        if isinstance(v, model.Multirotor):
-            X, U = multirotor_guess(v, P, V, A, inv.grid.dt)
+        vm = vehicles.model_of(v)
+        X, U = vm.guess(v, P, V, A, inv.grid.dt)
+        if vm.kind == "multirotor":  # its guessed force rates may exceed the envelope
             lo, hi = prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu]
             U = np.clip(U, lo[:, None], hi[:, None])
-        else:
-            X = np.vstack([P, V])
-            U = A
         w[L.x_slice] = X.T.ravel()
         w[L.u_slice] = U.T.ravel()
     return fill_aux(prob, inv, w, program.params, lam)

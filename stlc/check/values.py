@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlc import ir, model
+from stlc import ir, model, nnf
 from stlc.check.units import Dim
 
 
@@ -151,7 +151,7 @@ def div(a: ir.Expr, b: ir.Expr) -> ir.Expr:
 
 
 def neg(a: ir.Expr) -> ir.Expr:
-    return ir.negate_expr(a)
+    return nnf.negate_expr(a)
 
 
 def call(fn: str, *args: ir.Expr) -> ir.Expr:

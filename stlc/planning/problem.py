@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from stlc import ir, model
+from stlc import ir, model, nnf
 from stlc.diagnostics import Span
 from stlc.timegrid import TimeGrid
 
@@ -78,10 +78,10 @@ def mission_specs(program: model.Program, mission: model.Mission) -> dict[str, N
     for name, f in program.specs.items():
         used = {s.split(".")[0] for s in ir.signals(f)}
         if used and used <= team:
-            out[name] = NamedSpec(name, f, ir.normalize(f),
+            out[name] = NamedSpec(name, f, nnf.normalize(f),
                                   program.spec_spans.get(name, Span.none()))
     for name, f in mission.specs.items():
-        out[name] = NamedSpec(name, f, ir.normalize(f), mission.spec_spans.get(name, Span.none()))
+        out[name] = NamedSpec(name, f, nnf.normalize(f), mission.spec_spans.get(name, Span.none()))
     return out
 
 
@@ -95,6 +95,6 @@ def from_mission(program: model.Program, mission: model.Mission, *,
     grid = TimeGrid.from_horizon(mission.horizon, mission.step)
     return PlanningProblem(
         program=program, mission=mission, team=tuple(mission.vehicles), grid=grid,
-        requirement=ir.normalize(mission.requirement),
+        requirement=nnf.normalize(mission.requirement),
         specs=_frozen(mission_specs(program, mission)), objective=mission.objective,
         threshold=mission.threshold, smoothing=mission.smoothing)

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from stlc import ir
+from stlc import ir, nnf
 from stlc.model import Mission, Program
 from stlc.planning.bounds import bound_specs, stated_bounds
 from stlc.solution import Solution
@@ -98,7 +98,7 @@ class _Builder:
         self.vehicles = vehicles(mission, sol)
         self.multi = len(self.vehicles) > 1
         # the plan's bounds, completed by those the requirement states
-        self.bounds = {**stated_bounds(ir.normalize(mission.requirement)),
+        self.bounds = {**stated_bounds(nnf.normalize(mission.requirement)),
                        **sol.bounds}
         self.stated = bound_specs(formulas)
         self.signals = {k: ir.signals(f) for k, f in formulas.items()}

@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from stlc import model
+from stlc import model, vehicles
 from stlc.team import (
     Box,
     Drone,
@@ -139,7 +139,7 @@ def scenario_from_program(program: model.Program, mission: model.Mission, *,
     drones = []
     for name in mission.vehicles:
         v = program.vehicles[name]
-        if not isinstance(v, model.PointMass):
+        if vehicles.model_of(v).kind != "point_mass":
             raise ScenarioError(f"vehicle {name} is a {v.kind}; team planning needs point-mass "
                                 "vehicles", reason="scenario", subject=name)
         if v.capacity is None:

@@ -10,10 +10,12 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics
+from stlc import dynamics, geometry
 from stlc.model import AXES, Multirotor
 
 POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), 12
+GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
+GUESS_ACC = 2.0  # m/s^2
 
 
 class MultirotorModel:
@@ -87,18 +89,63 @@ class MultirotorModel:
                          for k in range(X.shape[0])])
 
     def kinematic_limits(self, v: Multirotor) -> tuple[np.ndarray, np.ndarray]:
-        from stlc.backends.schedule import GUESS_ACC, GUESS_VEL
-
         return np.full(3, GUESS_VEL), np.full(3, GUESS_ACC)
 
     def guess(self, v: Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
               ) -> tuple[np.ndarray, np.ndarray]:
-        from stlc.backends.schedule import multirotor_guess
-
         return multirotor_guess(v, P, V, A, dt)
 
     def plot_bounds(self, v: Multirotor) -> dict[str, list[float]]:
         return {"force": [v.force_min, v.force_max]}
+
+
+def _yaw_along_course(V: np.ndarray, yaw0: float, dt: float) -> np.ndarray:
+    """Heading that follows the horizontal direction of motion where the vehicle moves
+    (> 0.1 m/s), holds it otherwise, unwrapped and smoothed (1 s moving average)."""
+    n = V.shape[1]
+    yaw = np.empty(n)
+    cur = yaw0
+    for k in range(n):
+        if np.hypot(V[0, k], V[1, k]) > 0.1:
+            c = np.arctan2(V[1, k], V[0, k])
+            cur = cur + np.arctan2(np.sin(c - cur), np.cos(c - cur))
+        yaw[k] = cur
+    w = max(1, int(round(1.0 / dt)))
+    pad = np.concatenate([np.full(w, yaw[0]), yaw, np.full(w, yaw[-1])])
+    smooth = np.convolve(pad, np.ones(2 * w + 1) / (2 * w + 1), mode="same")[w:-w]
+    smooth[0] = yaw0
+    return smooth
+
+
+def multirotor_guess(v: Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray,
+                     dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """A nearly dynamically consistent state/input guess along a kinematic path: roll and
+    pitch level, yaw along the course, rotor forces from the allocation that realise the
+    path's acceleration and yaw acceleration (least squares, clipped to the force range)."""
+    n = P.shape[1]
+    yaw = _yaw_along_course(V, v.start_att[2], dt)
+    yaw_rate = np.gradient(yaw, dt)
+    yaw_acc = np.gradient(yaw_rate, dt)
+    W = geometry.wrench_matrix(v.rotors, v.c_f, v.c_tau)
+    Wp = np.linalg.pinv(W)
+    Jzz = np.array(v.inertia)[2, 2]
+    acc = np.hstack([A, A[:, -1:]])
+    forces = np.empty((len(v.rotors), n))
+    for k in range(n):
+        c, s = np.cos(yaw[k]), np.sin(yaw[k])
+        Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        f_body = Rz.T @ (v.mass * (acc[:, k] + np.array([0.0, 0.0, v.gravity])))
+        wrench = np.concatenate([f_body, [0.0, 0.0, Jzz * yaw_acc[k]]])
+        forces[:, k] = np.clip(Wp @ wrench, v.force_min, v.force_max)
+    X = np.zeros((12 + len(v.rotors), n))
+    X[0:3], X[6:9] = P, V
+    X[3:5] = 0.0
+    X[5] = yaw
+    X[11] = yaw_rate
+    X[12:] = forces
+    X[:, 0] = MultirotorModel().initial_state(v)
+    U = np.diff(X[12:], axis=1) / dt
+    return X, U
 
 
 __all__ = ["MultirotorModel", "AXES"]
