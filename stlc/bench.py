@@ -34,9 +34,9 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from stlc.ir import Always, And, Bin, Const, Eventually, Formula, Pred, Sig
-from stlc.monitor import robustness
-from stlc.smooth import smooth_robustness
+from stlc.analysis.monitor import robustness
+from stlc.analysis.smooth import smooth_robustness
+from stlc.semantics.ir import Always, And, Bin, Const, Eventually, Formula, Pred, Sig
 
 RTAMT_MS = 97.0
 BENCH_TEXT = ("always[0,17] ((x >= 0) and (x <= 5)) and "

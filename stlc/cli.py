@@ -124,8 +124,8 @@ def cmd_check(args) -> int:
 
 
 def cmd_monitor(args) -> int:
+    from stlc.analysis.trace import read_trace
     from stlc.pipeline import load, monitor_trace
-    from stlc.trace import read_trace
 
     program = load(args.file).program
     trace = read_trace(args.trace)
@@ -134,7 +134,7 @@ def cmd_monitor(args) -> int:
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
-        from stlc.solution import strict_dumps
+        from stlc.output.solution import strict_dumps
 
         print(strict_dumps({"specs": res}))
     else:

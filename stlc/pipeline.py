@@ -16,10 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stlc import ir, model
-from stlc.check import check
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
-from stlc.syntax import parse_file
+from stlc.frontend.syntax import parse_file
+from stlc.semantics import ir, model
+from stlc.semantics.check import check
 
 
 @dataclass
@@ -67,9 +67,9 @@ def monitored_formulas(program: model.Program) -> dict[str, ir.Formula]:
 
 
 def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
-    """Exact robustness of every monitored formula on a trace (``stlc.trace.Trace``)."""
-    from stlc import monitor_demand
-    from stlc.trace import check_signals
+    """Exact robustness of every monitored formula on a trace (``stlc.analysis.trace.Trace``)."""
+    from stlc.analysis import monitor_demand
+    from stlc.analysis.trace import check_signals
 
     formulas = monitored_formulas(program)
     # all at once: named specs share subformulas (a chain of hundreds of specs, each using
@@ -111,7 +111,7 @@ def _team_comparisons(problem, sols: list, quiet: bool) -> None:
     ``compare`` variant without the forward-speed term, the standard plan (Fig. 11)."""
     from stlc.backends.base import run_chain
     from stlc.backends.team_backend import TeamRefine
-    from stlc.solution import Comparison
+    from stlc.output.solution import Comparison
 
     seed, final = sols[0], sols[-1]
     final.comparisons.append(Comparison("MILP only", dict(seed.channels)))
@@ -147,7 +147,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
 
 def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
     """Run the mission's risk cases on the plan; results go onto the Solution (in memory)."""
-    from stlc.assess import run_risk
+    from stlc.analysis.assess import run_risk
 
     t0 = time.perf_counter()
     sol.risk, sol.risk_results = run_risk(program, mission, sol)
@@ -172,7 +172,7 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
                  quiet: bool = False, risk: bool = True) -> int:
     """``stlc compile``: every selected mission planned, verified, assessed, written."""
-    from stlc import compile as outputs
+    from stlc.output import compile as outputs
 
     t0 = time.perf_counter()
     loaded = load(path)
@@ -182,7 +182,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     base = out if out is not None else "reports"
     outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
                for m in missions}
-    from stlc.outputs import preflight
+    from stlc.output.directory import preflight
 
     for m in missions:  # before any solve: can the outputs be written at all?
         span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
@@ -213,11 +213,11 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
     cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
     (default: the trajectory's directory) and prints a table."""
-    from stlc.assess import risk_table, run_risk, select_mission
+    from stlc.analysis.assess import risk_table, run_risk, select_mission
+    from stlc.analysis.risk import RiskError, SamplingError, save_samples
+    from stlc.analysis.trace import check_signals, read_trace
+    from stlc.output.solution import Solution
     from stlc.planning.problem import mission_specs
-    from stlc.risk import RiskError, SamplingError, save_samples
-    from stlc.solution import Solution
-    from stlc.trace import check_signals, read_trace
 
     program = load(path).program
     m = select_mission(path, program, mission)
@@ -234,8 +234,8 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
                                     f"{e}", m.span, "check the risk block's distributions")]
                         ) from None
     outdir = out or os.path.dirname(os.path.abspath(trajectory))
-    from stlc.outputs import staged
-    from stlc.solution import strict
+    from stlc.output.directory import staged
+    from stlc.output.solution import strict
 
     target = os.path.join(outdir, "risk.json")
     with staged(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2),

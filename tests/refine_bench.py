@@ -1,7 +1,7 @@
 """Benchmark of the whole team pipeline on paper B's missions (script, not a test).
 
 parse → MILP (stlc.team.milp) → seed (stlc.team.seed) → refine → exact monitor of every
-named spec (``stlc.monitor.robustness`` on the checked IR, payload from
+named spec (``stlc.analysis.monitor.robustness`` on the checked IR, payload from
 ``stlc.team.payload``) on the dense 20 Hz plan. Needs the `team` helper's modules.
 
     python tests/refine_bench.py specs/bird_diverter_2x7.stl specs/bird_diverter_4x11.stl
@@ -12,8 +12,9 @@ from __future__ import annotations
 import sys
 import time
 
-from stlc import monitor, nnf
+from stlc.analysis import monitor
 from stlc.pipeline import load
+from stlc.semantics import nnf
 from stlc.team.milp import assign
 from stlc.team.payload import payload_team
 from stlc.team.refine import refine

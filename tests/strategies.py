@@ -20,8 +20,8 @@ from functools import cache
 import numpy as np
 from hypothesis import strategies as st
 
-from stlc import ir
-from stlc.ir import (
+from stlc.semantics import ir
+from stlc.semantics.ir import (
     Always,
     And,
     Bin,

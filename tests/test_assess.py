@@ -14,14 +14,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import cases, formulas
 
-from stlc import cli, ir, monitor, nnf, smooth
-from stlc.assess import risk_table, run_risk
-from stlc.ir import Always, And, Bin, Const, Eventually, Param, Pred, Sig, Until
-from stlc.monitor_demand import Demand, Plan, robustness_many
+from stlc import cli
+from stlc.analysis import monitor, smooth
+from stlc.analysis.assess import risk_table, run_risk
+from stlc.analysis.monitor_demand import Demand, Plan, robustness_many
+from stlc.analysis.risk import robustness_histogram, shared_robustness
+from stlc.analysis.smooth_demand import SmoothDemand, smooth_robustness_many
+from stlc.output.solution import Solution
 from stlc.pipeline import load
-from stlc.risk import robustness_histogram, shared_robustness
-from stlc.smooth_demand import SmoothDemand, smooth_robustness_many
-from stlc.solution import Solution
+from stlc.semantics import ir, nnf
+from stlc.semantics.ir import Always, And, Bin, Const, Eventually, Param, Pred, Sig, Until
 
 # A point-mass vehicle that sits at one point for 1 s, next to an operator whose region
 # `zone` is a box 1…2 m ahead of them, ±0.5 m to the side (their frame: x ahead, y left).

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from stlc import ir
 from stlc.backends import registry
 from stlc.backends.base import Backend, Capabilities, SolverStatus, run_chain
 from stlc.diagnostics import StlcError
 from stlc.pipeline import load
 from stlc.planning.problem import from_mission
+from stlc.semantics import ir
 
 SOURCE = """\
 vehicle d1 : point_mass {

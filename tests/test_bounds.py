@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from stlc import ir, nnf
 from stlc.pipeline import load
 from stlc.planning.bounds import bound_specs, plot_bounds, stated_bounds
 from stlc.planning.problem import from_mission
+from stlc.semantics import ir, nnf
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
 

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stlc import ir, model
-from stlc.check import check
-from stlc.syntax import parse, parse_file
+from stlc.frontend.syntax import parse, parse_file
+from stlc.semantics import ir, model
+from stlc.semantics.check import check
 
 SPECS = sorted((Path(__file__).resolve().parent.parent / "specs").glob("*.stl"))
 

@@ -17,10 +17,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stlc import ir, model
-from stlc.check import check
 from stlc.diagnostics import Diagnostic, StlcError
-from stlc.syntax import parse
+from stlc.frontend.syntax import parse
+from stlc.semantics import ir, model
+from stlc.semantics.check import check
 
 UAV = """\
 vehicle uav : point_mass {
@@ -296,7 +296,7 @@ def test_predicate_labels_count_lines_like_the_parser(sep):
 
 
 def test_name_hints_read_every_scope_without_copying():
-    from stlc.check.context import Scope
+    from stlc.semantics.check.context import Scope
 
     outer = Scope({"alpha": None})  # type: ignore[dict-item]
     inner = outer.child({"beta": None})  # type: ignore[dict-item]

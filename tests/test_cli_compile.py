@@ -16,10 +16,11 @@ from pathlib import Path
 
 import pytest
 
-from stlc import monitor, nnf
+from stlc.analysis import monitor
+from stlc.analysis.trace import read_trace
 from stlc.cli import main
 from stlc.pipeline import load
-from stlc.trace import read_trace
+from stlc.semantics import nnf
 
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"

@@ -17,10 +17,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from stlc import dynamics, model, monitor, nnf, vehicles
+from stlc import vehicles
+from stlc.analysis import monitor
+from stlc.analysis.trace import read_trace
 from stlc.diagnostics import StlcError
 from stlc.pipeline import compile_file, load, plan
-from stlc.trace import read_trace
+from stlc.planning import dynamics
+from stlc.semantics import model, nnf
 
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import pytest
 
-from stlc.check import check
 from stlc.diagnostics import CODES, Diagnostic, StlcError, render_all
-from stlc.postlex import MAX_DEPTH
-from stlc.syntax import MAX_LINE, decode, parse, parse_file
+from stlc.frontend.postlex import MAX_DEPTH
+from stlc.frontend.syntax import MAX_LINE, decode, parse, parse_file
+from stlc.semantics.check import check
 
 FIXTURES = Path(__file__).parent / "diagnostics"
 FILES = sorted(FIXTURES.glob("*.stl"))

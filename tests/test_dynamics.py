@@ -1,4 +1,5 @@
-"""Tests for stlc.geometry and stlc.dynamics against independently computed values."""
+"""Tests for stlc.analysis.geometry and stlc.planning.dynamics against independently computed
+values."""
 
 from __future__ import annotations
 
@@ -9,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from stlc import dynamics as dyn
-from stlc import geometry as geo
-from stlc.model import Multirotor, PointMass, Rotor
+from stlc.analysis import geometry as geo
+from stlc.planning import dynamics as dyn
+from stlc.semantics.model import Multirotor, PointMass, Rotor
 from stlc.vehicles import model_of
 
 # paper A, Table 3 (arm and tilt are not published; ≈ 0.39 m and 20° are our choice)

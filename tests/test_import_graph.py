@@ -137,10 +137,11 @@ def cycle_path(g: dict[str, set[str]], comp: list[str]) -> list[str]:
 
 def test_graph_sees_the_package():
     g = graph()
-    assert "stlc.check" in g and "stlc.check.context" in g and "stlc.pipeline" in g
-    assert "stlc.check" in g["stlc.pipeline"]  # module-level `from stlc.check import check`
-    assert "stlc.check.units" in g["stlc.check.context"]  # `from stlc.check import units`
-    assert "stlc.dynamics" in g["stlc.check.declarations"]  # a function-level import
+    chk = "stlc.semantics.check"
+    assert chk in g and f"{chk}.context" in g and "stlc.pipeline" in g
+    assert chk in g["stlc.pipeline"]  # module-level `from stlc.semantics.check import check`
+    assert f"{chk}.units" in g[f"{chk}.context"]  # `from stlc.semantics.check import units`
+    assert "stlc.planning.dynamics" in g[f"{chk}.declarations"]  # a function-level import
 
 
 def test_tarjan_finds_cycles_and_paths():
@@ -165,10 +166,11 @@ def test_no_import_cycles():
 
 
 def test_checker_modules_import_only_the_context():
-    """Inside ``stlc.check`` the helpers import only ``context``, ``values`` and ``units``;
-    ``program`` (and the package) put them together."""
+    """Inside ``stlc.semantics.check`` the helpers import only ``context``, ``values`` and
+    ``units``; ``program`` (and the package) put them together."""
     g = graph()
-    low = {"stlc.check.context", "stlc.check.values", "stlc.check.units"}
+    chk = "stlc.semantics.check"
+    low = {f"{chk}.context", f"{chk}.values", f"{chk}.units"}
     for helper in ("declarations", "elaborate", "formulas", "mission", "builtins"):
-        inside = {m for m in g[f"stlc.check.{helper}"] if m.startswith("stlc.check")}
+        inside = {m for m in g[f"{chk}.{helper}"] if m.startswith(chk)}
         assert inside <= low, (helper, inside - low)

@@ -10,8 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import DTS, cases, formulas, traces
 
-from stlc import ir, monitor, nnf
-from stlc.ir import (
+from stlc.analysis import monitor
+from stlc.analysis.monitor import binding, eval_expr, robustness, robustness_signal, sliding
+from stlc.semantics import ir, nnf
+from stlc.semantics.ir import (
     Always,
     And,
     Bin,
@@ -31,7 +33,6 @@ from stlc.ir import (
     TrueF,
     Until,
 )
-from stlc.monitor import binding, eval_expr, robustness, robustness_signal, sliding
 
 INF = math.inf
 

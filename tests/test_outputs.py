@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from stlc import outputs
 from stlc.cli import main
 from stlc.diagnostics import Span, StlcError
+from stlc.output import directory
 
 ROOT = Path(__file__).resolve().parent.parent
 OWN = {"report.html", "solution.json", "trajectory.csv"}
@@ -91,7 +91,7 @@ def test_stale_risk_outputs_of_an_earlier_run_are_removed_but_nothing_else(tmp_p
     for name in ("risk.json", "solution.json", "keep.json"):
         (out / name).write_text("old")
     (stage / "solution.json").write_text("new")
-    assert outputs.publish(str(stage), str(out)) == ["solution.json"]
+    assert directory.publish(str(stage), str(out)) == ["solution.json"]
     assert {p.name: p.read_text() for p in out.iterdir()} == {"solution.json": "new",
                                                              "keep.json": "old"}
 
@@ -116,10 +116,10 @@ def test_unusable_output_directory_is_stl605_before_solving(two, tmp_path, case,
 
 def test_preflight_creates_nothing(tmp_path):
     target = tmp_path / "a" / "b"
-    outputs.preflight(str(target), Span("f.stl", 1, 1, 1, 2))
+    directory.preflight(str(target), Span("f.stl", 1, 1, 1, 2))
     assert not (tmp_path / "a").exists()
     with pytest.raises(StlcError) as e:
-        outputs.preflight("", Span("f.stl", 3, 1, 3, 2))
+        directory.preflight("", Span("f.stl", 3, 1, 3, 2))
     assert e.value.diagnostics[0].span.line == 3
 
 
@@ -139,7 +139,7 @@ def test_concurrent_compiles_to_one_directory_end_with_one_complete_set(two, tmp
     header = (out / "trajectory.csv").read_text().splitlines()[0]
     html = (out / "report.html").read_text()
     # one set: the trajectory is the plan of the mission solution.json names
-    from stlc.trace import read_trace
+    from stlc.analysis.trace import read_trace
 
     tr = read_trace(out / "trajectory.csv")
     axis = {"east": "p.pos.x", "north": "p.pos.y"}[sol["mission"]]

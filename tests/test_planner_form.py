@@ -2,7 +2,7 @@
 
 ``casadi_expr.planner_form(f, κ)`` rewrites every predicate margin m into a smooth margin
 with the sign of m - κ, so that ρ(P_κ f) > 0 ⟺ ρ(f) > κ for the exact monitor: checked here
-on random trajectories against ``stlc.monitor`` (the reference) for boxes, speed bounds,
+on random trajectories against ``stlc.analysis.monitor`` (the reference) for boxes, speed bounds,
 rotor-speed intervals and the heading-or-hover disjunction of the handover comfort spec.
 ``lam_scaling`` (λ·(1 + ln n) per n-ary operator) is checked against a hand-computed
 smooth min.
@@ -17,11 +17,12 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from stlc import ir, monitor, nnf
+from stlc.analysis import monitor
 from stlc.backends import casadi_expr as cx
 from stlc.backends.smooth_casadi import lower_robustness
-from stlc.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
-from stlc.timegrid import TimeGrid
+from stlc.semantics import ir, nnf
+from stlc.semantics.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
+from stlc.semantics.timegrid import TimeGrid
 
 X, Y, VX, VY, VZ, PSI, XI = (Sig(s) for s in ("x", "y", "vx", "vy", "vz", "psi", "xi"))
 

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pytest
 
-from stlc import timegrid
 from stlc.cli import main
 from stlc.diagnostics import StlcError, did_you_mean, render, source_lines
-from stlc.syntax import parse, parse_file
+from stlc.frontend.syntax import parse, parse_file
+from stlc.semantics import timegrid
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -174,7 +174,7 @@ def test_monitor_json_writes_infinities_and_nan_strictly(tmp_path, capsys):
 
 
 def test_solution_json_is_strict():
-    from stlc.solution import json_number, strict_dumps
+    from stlc.output.solution import json_number, strict_dumps
 
     assert [json_number(x) for x in (1.5, float("inf"), -float("inf"), float("nan"))] == \
         [1.5, "inf", "-inf", None]
@@ -235,7 +235,7 @@ def test_check_of_a_missing_file_prints_a_location(tmp_path):
 
 @pytest.mark.parametrize("nl", ["\n", "\r\n", "\r"])
 def test_trace_line_numbers_follow_the_same_line_ends(tmp_path, nl):
-    from stlc.trace import read_trace
+    from stlc.analysis.trace import read_trace
 
     p = tmp_path / "t.csv"
     p.write_bytes(nl.join(["t,x", "0,1", "0.1,oops", ""]).encode())

@@ -17,8 +17,14 @@ import numpy as np
 import pytest
 
 from stlc.diagnostics import Span
-from stlc.ir import Always, And, Bin, Bound, Const, Eventually, Or, Pred, Sig
-from stlc.model import (
+from stlc.output.report import build_view, load_samples, render_report, script_json, write_report
+from stlc.output.report.common import num
+from stlc.output.report.predicates import predicate_line, readable
+from stlc.output.report.risk_view import MAX_BINS, MIN_BINS
+from stlc.output.report.scene import region_role, rotation
+from stlc.output.solution import Comparison, Solution, SpecResult, Window
+from stlc.semantics.ir import Always, And, Bin, Bound, Const, Eventually, Or, Pred, Sig
+from stlc.semantics.model import (
     Box,
     Human,
     Mission,
@@ -33,12 +39,6 @@ from stlc.model import (
     Rotor,
     Scenario,
 )
-from stlc.report import build_view, load_samples, render_report, script_json, write_report
-from stlc.report.common import num
-from stlc.report.predicates import predicate_line, readable
-from stlc.report.risk_view import MAX_BINS, MIN_BINS
-from stlc.report.scene import region_role, rotation
-from stlc.solution import Comparison, Solution, SpecResult, Window
 
 FILE = "demo.stl"
 SOURCE = """\
@@ -550,7 +550,7 @@ def test_risk_present(view):
     assert a["p_violation_text"] == "0.081" and a["p_violation_upper_text"] == "0.088"
     assert a["specs"][0]["name"] == "reach"
     assert len(a["histogram"]["centers"]) == 5 and a["histogram"]["centers"][0] == -0.15
-    assert b["driver"] == "reach" and b["histogram"] is None  # stlc.risk format: drivers
+    assert b["driver"] == "reach" and b["histogram"] is None  # stlc.analysis.risk format: drivers
     assert b["specs"][0]["share_text"] == "95 %"
     assert a["top_var_text"] == "+0.03" and b["top_beta"] == "0.7"
     assert risk["top_beta"] == "max β"  # the cases' largest β differ

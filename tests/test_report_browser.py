@@ -5,7 +5,7 @@ checks that no console error occurs, that every plot container holds a rendered 
 figure, and that the ``<script>`` in the mission text did not run.  Besides the synthetic
 solutions of ``test_report``, a small real mission (two point masses, an operator with
 regions in their frame, a comparison plan and two risk cases; it plans in a few seconds) is
-compiled with ``stlc.compile.plan`` and written with ``write_outputs``, so the page is tested
+compiled with ``stlc.output.compile.plan`` and written with ``write_outputs``, so the page is tested
 on the data shapes ``compile`` really produces, for a satisfied and for a violated plan.
 Full-page screenshots go to ``reports/_screens/`` (git-ignored) for a person to look at.
 
@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 from test_report import synthetic_case
 
-from stlc.report import write_report
-from stlc.solution import Solution
+from stlc.output.report import write_report
+from stlc.output.solution import Solution
 
 #: two point masses hand a parcel to an operator while keeping apart; `far` cannot deliver in
 #: time (a violated plan)
@@ -224,7 +224,7 @@ def test_report_without_a_plan_renders_in_chromium(browser, tmp_path):
 def compiled(tmp_path_factory):
     """The two missions of ``TEAM_STL`` planned, risk-assessed and written as ``compile``
     does; returns {mission: output directory}."""
-    from stlc.compile import write_outputs
+    from stlc.output.compile import write_outputs
     from stlc.pipeline import assess_risk, load, plan
 
     root = tmp_path_factory.mktemp("real")

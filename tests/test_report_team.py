@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from test_report import point_mass_team, span
 
-from stlc.model import Box, Objective, Region
-from stlc.report import build_view, render_report
-from stlc.report.common import drone_color
-from stlc.report.team_view import KIND_COLORS, closest_approach, is_team
-from stlc.solution import Comparison, SpecResult
+from stlc.output.report import build_view, render_report
+from stlc.output.report.common import drone_color
+from stlc.output.report.team_view import KIND_COLORS, closest_approach, is_team
+from stlc.output.solution import Comparison, SpecResult
+from stlc.semantics.model import Box, Objective, Region
 from stlc.team import PayloadEvent, Visit
 
 #: v* of the synthetic mission (m/s); both drones fly hypot(0.5, 1) = √1.25 m/s

@@ -1,7 +1,7 @@
 """Risk analysis: sampling, VaR/CVaR with DKW bounds, p(violation), case evaluation.
 
 The pure-math tests do not need the monitor; case evaluation runs against a small stand-in
-monitor (below) and, when ``stlc.monitor`` exists, is cross-checked against it.
+monitor (below) and, when ``stlc.analysis.monitor`` exists, is cross-checked against it.
 """
 
 from __future__ import annotations
@@ -13,10 +13,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from stlc.ir import Always, And, Bin, Const, Eventually, Or, Param, Pred, Sig
-from stlc.model import Normal, RiskCase, RiskConfig
-from stlc.risk import evaluate_case, evaluate_risk, run_cases, save_samples
-from stlc.risk_measures import (
+from stlc.analysis.risk import evaluate_case, evaluate_risk, run_cases, save_samples
+from stlc.analysis.risk_measures import (
     RiskError,
     betainc,
     clopper_pearson_upper,
@@ -25,13 +23,15 @@ from stlc.risk_measures import (
     p_violation,
     var_bounds,
 )
-from stlc.sampling import (
+from stlc.analysis.sampling import (
     SamplingError,
     human_frame_point,
     merge_distributions,
     rotation,
     sample_params,
 )
+from stlc.semantics.ir import Always, And, Bin, Const, Eventually, Or, Param, Pred, Sig
+from stlc.semantics.model import Normal, RiskCase, RiskConfig
 
 # --------------------------------------------------------------------------- hand examples
 
@@ -385,7 +385,7 @@ def test_base_distributions_are_overridden():
 
 
 def test_against_real_monitor():
-    monitor = pytest.importorskip("stlc.monitor")
+    monitor = pytest.importorskip("stlc.analysis.monitor")
     cfg = RiskConfig(cases=(_case("c", 0.25),), K=500, seed=2)
     real = evaluate_case(cfg.cases[0], cfg, REQ, SPECS, 0.1, CHANNELS, NOMINAL,
                          with_smooth=False, robustness_fn=monitor.robustness)

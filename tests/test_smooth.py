@@ -11,10 +11,24 @@ from hypothesis import strategies as st
 from strategies import cases
 from test_monitor import bf_expr, window
 
-from stlc import ir, nnf, smooth
-from stlc.ir import Always, And, Bin, Const, Eventually, Not, Or, Pred, Release, Sig, TrueF, Until
-from stlc.monitor import robustness_signal
-from stlc.smooth import smooth_robustness, smooth_robustness_signal
+from stlc.analysis import smooth
+from stlc.analysis.monitor import robustness_signal
+from stlc.analysis.smooth import smooth_robustness, smooth_robustness_signal
+from stlc.semantics import ir, nnf
+from stlc.semantics.ir import (
+    Always,
+    And,
+    Bin,
+    Const,
+    Eventually,
+    Not,
+    Or,
+    Pred,
+    Release,
+    Sig,
+    TrueF,
+    Until,
+)
 
 INF = math.inf
 

@@ -2,7 +2,7 @@
 
 The lowering is checked against an independent, deliberately naive numpy implementation
 below (per sample, flat windows, no lifting, no dyadic blocks), against the numpy reference
-``stlc.smooth`` when it exists, against finite differences, and by solving small NLPs whose
+``stlc.analysis.smooth`` when it exists, against finite differences, and by solving small NLPs whose
 optimum is known.  ``test_size_and_speed`` prints a size/time comparison (run with ``-s``).
 """
 
@@ -18,11 +18,11 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from strategies import cases
 
-from stlc import ir, nnf
 from stlc.backends import casadi_expr as cx
 from stlc.backends.smooth_casadi import LOWER, lower_robustness
-from stlc.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
-from stlc.timegrid import TimeGrid
+from stlc.semantics import ir, nnf
+from stlc.semantics.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
+from stlc.semantics.timegrid import TimeGrid
 
 BIG = cx.BIG
 
@@ -222,7 +222,7 @@ def test_gkl_is_sound(case, lam):
     """Smooth GKL robustness never exceeds the exact robustness, as long as ±BIG are extreme
     and no predicate uses abs/sqrt/min/max (smoothed inside expressions, which is not
     sign-safe: e.g. sqrt(abs(x)) at x = 0 is sqrt(ABS_EPS) = 0.01)."""
-    from stlc import monitor
+    from stlc.analysis import monitor
 
     f, dt, ch = case
     f = _replace_preds(nnf.normalize(f), lambda p: _calls(p.expr) & {"min", "max", "abs", "sqrt"})
@@ -320,10 +320,10 @@ def test_extreme_values_do_not_overflow():
 @given(case=cases(params=("p",), max_len=16), lam=st.sampled_from([2.0, 10.0, 40.0]),
        method=methods)
 def test_matches_numpy_reference_on_random_formulas(case, lam, method):
-    """Same numbers as ``stlc.smooth`` wherever the conventions agree: finite robustness
+    """Same numbers as ``stlc.analysis.smooth`` wherever the conventions agree: finite robustness
     (the reference uses ±inf where we use ±BIG) and no abs/sqrt/min/max/atan2 in predicates
     (the reference evaluates expressions exactly, we smooth them)."""
-    smooth = pytest.importorskip("stlc.smooth")
+    smooth = pytest.importorskip("stlc.analysis.smooth")
     f, dt, ch = case
     f = _replace_preds(nnf.normalize(f),
                        lambda p: _calls(p.expr) & {"min", "max", "abs", "sqrt", "atan2"})
@@ -338,7 +338,7 @@ def test_matches_numpy_reference_on_random_formulas(case, lam, method):
 
 
 def test_matches_numpy_reference_if_present():
-    smooth = pytest.importorskip("stlc.smooth")
+    smooth = pytest.importorskip("stlc.analysis.smooth")
     rng = np.random.default_rng(0)
     x, y = Sig("x"), Sig("y")
     box = And((Pred(Bin("-", x, Const(-0.5))), Pred(Bin("-", Const(1.0), x)),
@@ -439,7 +439,7 @@ def _benchmark_problem(lift: bool, dyadic: bool, lam: float = 50.0, solve: bool 
                        hypograph: bool = False) -> dict:
     """A point mass in 3-D (x_{k+1} = x_k + dt·v_k, |v_i| ≤ 1) must stay in a corridor box
     for 17 s and, within 12 s, reach a target box and stay 5 s (n = 171, dt = 0.1)."""
-    from stlc import monitor
+    from stlc.analysis import monitor
 
     grid = TimeGrid(0.1, 170)
     n, dt = grid.n, grid.dt

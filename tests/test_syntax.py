@@ -2,7 +2,7 @@
 
 Properties:
 
-* round trip — a random AST printed with ``stlc.printer`` and parsed back is the same AST
+* round trip — a random AST printed with ``stlc.frontend.printer`` and parsed back is the same AST
   (spans are excluded from equality), and shipped example files survive parse → print →
   parse;
 * robustness — random text, random bytes and random token soup never make the front end
@@ -17,11 +17,11 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from stlc import ast
-from stlc.check import check
 from stlc.diagnostics import StlcError
-from stlc.printer import print_file
-from stlc.syntax import decode, parse
+from stlc.frontend import ast
+from stlc.frontend.printer import print_file
+from stlc.frontend.syntax import decode, parse
+from stlc.semantics.check import check
 
 REPO = Path(__file__).resolve().parent.parent
 SPECS = sorted((REPO / "specs").glob("*.stl"))

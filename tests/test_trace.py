@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from stlc.analysis.trace import check_signals, read_trace
 from stlc.diagnostics import Span, StlcError
-from stlc.trace import check_signals, read_trace
 
 
 def write(tmp_path, content: str | bytes, name: str = "trace.csv") -> str:

@@ -21,12 +21,12 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from stlc import ir
 from stlc.diagnostics import Diagnostic, StlcError
+from stlc.semantics import ir
 
 if TYPE_CHECKING:
+    from stlc.output.solution import Solution
     from stlc.planning.problem import PlanningProblem
-    from stlc.solution import Solution
 
 
 class SolverStatus(enum.StrEnum):

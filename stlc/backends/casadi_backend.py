@@ -21,11 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlc import ir, smooth, vehicles
+from stlc import vehicles
+from stlc.analysis import smooth
 from stlc.backends.base import Backend, Capabilities, SolverStatus
 from stlc.diagnostics import Diagnostic, StlcError
+from stlc.output.solution import Comparison, Solution, Verdict
 from stlc.planning.problem import PlanningProblem
-from stlc.solution import Comparison, Solution, Verdict
+from stlc.semantics import ir
 
 _NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
                     ir.Until, ir.Release, ir.Next})

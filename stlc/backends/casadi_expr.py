@@ -26,7 +26,7 @@ combine as ``s = lse-max(s_b)``, ``μ = Σ_b softmax(λ s)_b μ_b`` — because 
 softmax(λ s)_b equal Σ_{i∈b} e^{λ a_i} / Σ_i e^{λ a_i}, this is exactly the GKL mean of the
 union.  A single operand a is the block ``(a, a)``.
 
-Safe expression functions (``stlc.smooth``, the numpy reference, currently evaluates
+Safe expression functions (``stlc.analysis.smooth``, the numpy reference, currently evaluates
 expressions exactly; the two agree wherever abs/sqrt/log/atan2/min/max are not used):
 
 ==============  ====================================================================
@@ -51,7 +51,7 @@ from functools import reduce
 import casadi as ca
 import numpy as np
 
-from stlc import ir
+from stlc.semantics import ir
 
 #: stand-in for ±inf (true/false, empty windows, ``next`` past the end of the trace)
 BIG = 1e3
@@ -353,7 +353,7 @@ def planner_expr(e: ir.Expr, kappa: float = 0.0) -> tuple[ir.Expr, float | None]
 
 def _pair_width(a: ir.Expr, b: ir.Expr, params: Mapping[str, float]) -> float | None:
     """w if ``a + b`` is the constant w > 0 for any signal values (a box's two faces)."""
-    from stlc import monitor
+    from stlc.analysis import monitor
 
     sigs = sorted({leaf.name for x in (a, b) for leaf in ir.expr_leaves(x)
                    if isinstance(leaf, ir.Sig)})

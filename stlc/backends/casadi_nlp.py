@@ -31,11 +31,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics, ir, model, nnf, vehicles
+from stlc import vehicles
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
-from stlc.timegrid import TimeGrid
+from stlc.planning import dynamics
+from stlc.semantics import ir, model, nnf
+from stlc.semantics.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
 #: the energy stage keeps the planner's smooth robustness ρ̃(P_κ(f)) >= PLAN_MARGIN (> 0, so
@@ -304,7 +306,7 @@ def state_matrix(w: np.ndarray, L: Layout, n: int) -> np.ndarray:
 
 def exact_robustness(f: ir.Formula, inv: InverseData, w: np.ndarray,
                      params: dict[str, float]) -> float:
-    from stlc import monitor
+    from stlc.analysis import monitor
 
     return float(monitor.robustness(f, inv.grid.dt, trajectory_channels(w, inv), params))
 

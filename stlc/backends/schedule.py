@@ -35,7 +35,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from stlc import interrupt, ir, model, vehicles
+from stlc import interrupt, vehicles
 from stlc.backends.casadi_nlp import (
     PLAN_MARGIN,
     STATUS_MAP,
@@ -48,7 +48,8 @@ from stlc.backends.casadi_nlp import (
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
-from stlc.timegrid import TimeGrid
+from stlc.semantics import ir, model
+from stlc.semantics.timegrid import TimeGrid
 
 LAM_FACTOR = 3.0
 LAM_MAX = 300.0
@@ -201,7 +202,7 @@ def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
                   inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
-    from stlc import smooth
+    from stlc.analysis import smooth
 
     params = program.params
     obj = mission.objective

@@ -9,7 +9,7 @@
 * ``init`` — a ``casadi.Function`` from numeric channel/parameter/λ values to the aux values
   that make every constraint hold (the un-lifted smooth values) and the un-lifted root.
 
-Semantics (the numpy reference ``stlc.smooth`` computes the same numbers): predicates are
+Semantics (the numpy reference ``stlc.analysis.smooth`` computes the same numbers): predicates are
 their expression (``casadi_expr``); ``and``/``always``/the inner min of ``until`` use the
 smooth min, ``or``/``eventually``/the outer max of ``until`` the smooth max of ``method``
 (``"gkl"`` or ``"lse"``), each as *one flat* smooth op over all its operands (the until inner
@@ -59,7 +59,6 @@ from collections.abc import Callable, Mapping
 import casadi as ca
 import numpy as np
 
-from stlc import ir
 from stlc.backends.casadi_expr import (
     BIG,
     Alg,
@@ -84,7 +83,8 @@ from stlc.backends.smooth_windows import (
     _Val,
     _windows,
 )
-from stlc.timegrid import TimeGrid
+from stlc.semantics import ir
+from stlc.semantics.timegrid import TimeGrid
 
 __all__ = ["LoweringError", "lower_robustness", "LOWER", "BIG"]
 

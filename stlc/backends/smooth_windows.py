@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from stlc import ir
 from stlc.backends.casadi_expr import LoweringError
-from stlc.timegrid import TimeGrid
+from stlc.semantics import ir
+from stlc.semantics.timegrid import TimeGrid
 
 _PARAM, _LAM = "param:", ":lam"  # input names of ``LoweredRobustness.init``
 

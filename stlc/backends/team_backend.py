@@ -21,12 +21,12 @@ import time
 
 import numpy as np
 
-from stlc import ir
 from stlc.backends.base import Backend, Capabilities, SolverStatus
 from stlc.diagnostics import Diagnostic, StlcError
+from stlc.output.solution import Solution, Verdict
 from stlc.planning.bounds import stated_bounds
 from stlc.planning.problem import PlanningProblem
-from stlc.solution import Solution, Verdict
+from stlc.semantics import ir
 
 _NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
                     ir.Until, ir.Release, ir.Next})

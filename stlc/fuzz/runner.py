@@ -42,9 +42,9 @@ def _located(diags, text: str, path: str) -> str | None:
 def classify(case: dict) -> tuple[str, str]:
     """``(class, detail)`` of one input (see ``stlc.fuzz``)."""
     from stlc import cli
+    from stlc.analysis.trace import read_trace
     from stlc.diagnostics import StlcError, render_all
     from stlc.pipeline import load, monitor_trace
-    from stlc.trace import read_trace
 
     with tempfile.TemporaryDirectory(prefix="stlc-fuzz-") as d:
         path, csv = os.path.join(d, "in.stl"), os.path.join(d, "in.csv")

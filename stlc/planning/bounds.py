@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlc import ir, vehicles
+from stlc import vehicles
+from stlc.output.solution import Window
 from stlc.planning.problem import PlanningProblem
-from stlc.solution import Window
+from stlc.semantics import ir
 
 
 def _calls(e: ir.Expr) -> set[str]:

@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from stlc import ir, model, nnf
 from stlc.diagnostics import Span
-from stlc.timegrid import TimeGrid
+from stlc.semantics import ir, model, nnf
+from stlc.semantics.timegrid import TimeGrid
 
 if TYPE_CHECKING:
-    from stlc.solution import Solution
+    from stlc.output.solution import Solution
 
 
 @dataclass(frozen=True, slots=True)

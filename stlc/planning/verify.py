@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlc import ir, monitor, smooth, vehicles
+from stlc import vehicles
+from stlc.analysis import monitor, smooth
+from stlc.output.solution import Solution, SpecResult, Verdict
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
-from stlc.solution import Solution, SpecResult, Verdict
+from stlc.semantics import ir
 
 
 def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, list]:

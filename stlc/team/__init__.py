@@ -9,7 +9,7 @@ The package splits the initial guess of paper B §IV-B into independent pieces:
 * :mod:`stlc.team.primitives` — closed-form rest-to-rest motion primitives with per-axis
   velocity and acceleration bounds;
 * :mod:`stlc.team.seed` — the seed trajectory of every drone on the dense grid, and the
-  adapter from a checked ``stlc.model.Program`` / ``Mission``.
+  adapter from a checked ``stlc.semantics.model.Program`` / ``Mission``.
 
 The dataclasses below are the interface shared with ``stlc.team.refine`` (see
 notes/TEAM_INTERFACE.md); keep them identical there.  Units are SI throughout.

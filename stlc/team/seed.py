@@ -18,7 +18,7 @@ These are exactly the times the MILP's cost model charges (``milp.route_time``).
 that does not fit the horizon raises ``TeamError(reason="horizon")``.
 
 ``scenario_from_program(program, mission, ...)`` builds the ``TeamScenario`` from the
-checked ``stlc.model`` objects: point-mass vehicles with a ``capacity``; regions of kind
+checked ``stlc.semantics.model`` objects: point-mass vehicles with a ``capacity``; regions of kind
 ``target``, ``station``, ``obstacle`` and ``workspace`` (world frame).  Install / refill
 times come from ``mission.install_time`` / ``mission.refill_time`` when the model has those
 fields and they are set, otherwise from the keyword arguments of the same name (the
@@ -32,7 +32,8 @@ import math
 
 import numpy as np
 
-from stlc import model, vehicles
+from stlc import vehicles
+from stlc.semantics import model
 from stlc.team import (
     Box,
     Drone,

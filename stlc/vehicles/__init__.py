@@ -15,7 +15,7 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
-from stlc import model
+from stlc.semantics import model
 
 
 class VehicleModel(Protocol):

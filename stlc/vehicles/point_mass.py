@@ -7,8 +7,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from stlc import dynamics
-from stlc.model import PointMass
+from stlc.planning import dynamics
+from stlc.semantics.model import PointMass
 
 POS, VEL = slice(0, 3), slice(3, 6)
 

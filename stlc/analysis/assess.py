@@ -1,0 +1,98 @@
+"""Risk assessment pass: a plan (a ``Solution``'s channels, or a trajectory CSV) and a
+mission's risk cases → ``risk.json`` data and per-realisation samples (paper A §4.3).
+
+``run_risk`` samples each case's uncertain human pose and re-evaluates the *fixed* plan's
+exact and smooth robustness of the requirement and of each named spec for all K
+realisations in one shared evaluation (``stlc.analysis.risk.shared_robustness``), then summarises
+VaR/CVaR with DKW bounds, the violation probability, the spec that drives the violations
+and a histogram (``stlc.analysis.risk``).  ``select_mission`` picks the mission
+that ``stlc risk FILE --trajectory CSV`` assesses and ``risk_table`` prints its summary (the
+command itself is ordered by ``stlc.pipeline.risk_file``).
+"""
+
+from __future__ import annotations
+
+from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.output.solution import Solution
+from stlc.planning.problem import mission_specs
+from stlc.semantics import model, nnf
+
+EXIT_OK = 0
+
+
+def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
+             dt: float | None = None):
+    """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results), or
+    (None, None) without a ``risk`` block.  ``dt`` is the plan's sample period (default:
+    the mission's step)."""
+    from stlc.analysis import risk as riskmod
+
+    cfg = mission.risk
+    if cfg is None:
+        return None, None
+    specs = {k: s.normal for k, s in mission_specs(program, mission).items()}
+    base = tuple(d for h in program.scenario.humans for d in h.uncertain)
+    results = riskmod.run_cases(cfg, nnf.normalize(mission.requirement), specs,
+                                mission.step if dt is None else dt, sol.channels,
+                                program.params, mission.smoothing.lam,
+                                mission.smoothing.method, base=base)
+    return {"mission": mission.name, "cases": [r.to_json() for r in results]}, results
+
+
+def select_mission(path: str, program: model.Program, mission: str | None) -> model.Mission:
+    """The mission to assess: ``mission``, or the only one with a ``risk`` block."""
+    where = Span(path, 1, 1, 1, 2)
+    with_risk = [m for m, mm in program.missions.items() if mm.risk is not None]
+    if mission is not None:
+        if mission not in program.missions:
+            raise StlcError([Diagnostic(
+                "STL101", f"no mission `{mission}` in {path}", where,
+                did_you_mean(mission, program.missions) or
+                "missions: " + (", ".join(program.missions) or "none"))])
+        m = program.missions[mission]
+        if m.risk is None:
+            raise StlcError([Diagnostic(
+                "STL109", f"mission `{mission}` has no `risk` block to assess", m.span,
+                "add `risk { K = ...; case NAME { ... } }` to the mission"
+                + (f", or use --mission {with_risk[0]}" if with_risk else ""))])
+        return m
+    if len(with_risk) == 1:
+        return program.missions[with_risk[0]]
+    if not with_risk:
+        raise StlcError([Diagnostic("STL109", f"{path} has no mission with a `risk` block",
+                                    where, "add `risk { ... }` to a mission")])
+    raise StlcError([Diagnostic("STL109", f"{path} has {len(with_risk)} missions with a "
+                                "`risk` block: which one planned this trajectory?", where,
+                                "pass --mission NAME (one of " + ", ".join(with_risk) + ")")])
+
+
+def risk_table(risk_json: dict, source: str = "") -> str:
+    """A short text table: per case, P(violation) with its upper bound, VaR_β and CVaR_β of
+    the exact robustness (bounds are in ``risk.json``) and the driving spec."""
+    cases = risk_json.get("cases", [])
+    if not cases:
+        return "no risk cases"
+    betas = list(cases[0]["var"])
+    head = [f"mission {risk_json.get('mission', '?')}"
+            + (f" on {source}" if source else "")
+            + f": K = {cases[0]['K']}, δ = {cases[0]['delta']:g}, seed {cases[0]['seed']}"]
+    cols = (["case", "P(viol)", "≤ upper"] + [f"VaR{b}" for b in betas]
+            + [f"CVaR{b}" for b in betas] + ["driver"])
+    rows = []
+    for c in cases:
+        pv = c["p_violation"]
+        rows.append([c["name"], _fmt(pv["value"]), _fmt(pv["upper"])]
+                    + [_fmt(c["var"][b]["value"], signed=True) for b in betas]
+                    + [_fmt(c["cvar"][b]["value"], signed=True) for b in betas]
+                    + [c.get("driver") or "-"])
+    widths = [max(len(r[i]) for r in [cols, *rows]) for i in range(len(cols))]
+    lines = ["  ".join(x.ljust(w) if i in (0, len(cols) - 1) else x.rjust(w)
+                       for i, (x, w) in enumerate(zip(r, widths, strict=True))).rstrip()
+             for r in [cols, *rows]]
+    return "\n".join(head + lines)
+
+
+def _fmt(x, signed: bool = False) -> str:
+    if x is None:
+        return "-"
+    return f"{x:+.4f}" if signed else f"{x:.4f}"

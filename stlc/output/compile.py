@@ -1,0 +1,71 @@
+"""The outputs of ``stlc compile``: ``solution.json``, ``trajectory.csv``, ``report.html``
+(+ ``risk.json``, ``risk_samples.npz``) of one verified ``Solution``, and the summary line.
+
+The pipeline (``stlc.pipeline.compile_file``) orders the passes and calls this last, once
+everything the outputs contain exists.  ``stlc.output.directory`` writes them: only stlc's own
+files, each replaced atomically, as one set under a lock on the directory (checked before any
+solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+from stlc.output.solution import Solution
+from stlc.semantics import model
+
+EXIT_OK, EXIT_UNSAT = 0, 3
+
+
+# ---------------------------------------------------------------- outputs
+
+
+def write_outputs(outdir: str, program: model.Program, mission: model.Mission, sol: Solution
+                  ) -> None:
+    """Write every output of one mission into ``outdir`` (see ``stlc.output.directory``)."""
+    from stlc.output.directory import staged
+    from stlc.output.report import write_report
+
+    with staged(outdir, mission.span) as tmp:
+        with open(os.path.join(tmp, "solution.json"), "w") as fh:
+            fh.write(sol.to_json())
+        with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
+            fh.write(sol.trajectory_csv())
+        if sol.routes:
+            from stlc.backends.team_backend import solution_plan
+            from stlc.team.refine import per_drone_csv
+
+            for drone, text in per_drone_csv(solution_plan(sol)).items():
+                with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
+                    fh.write(text)
+        if sol.risk is not None:
+            from stlc.output.solution import strict
+
+            with open(os.path.join(tmp, "risk.json"), "w") as fh:
+                json.dump(strict(sol.risk), fh, indent=2, allow_nan=False)
+            if sol.risk_results is not None:
+                from stlc.analysis.risk import save_samples
+
+                save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
+        write_report(os.path.join(tmp, "report.html"), program, mission, sol)
+
+
+def summary(sol: Solution, outdir: str) -> None:
+    print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
+          f"smooth {sol.robustness_smooth:+.4f}  energy {sol.energy:.1f} J  "
+          f"→ {outdir}/report.html")
+    if sol.status != "satisfied":
+        worst = min(sol.specs.items(), key=lambda kv: kv[1].robustness, default=None)
+        if worst is not None:
+            name, s = worst
+            at = f" at t = {s.tightest_time:g} s" if s.tightest_time is not None else ""
+            if s.robustness < 0:
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
+                      f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
+            else:
+                kappa = sol.smoothing.get("threshold", 0.0)
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
+                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}: "
+                      f"{s.binding_predicate}", file=sys.stderr)

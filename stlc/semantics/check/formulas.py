@@ -1,0 +1,331 @@
+"""Elaboration of formulas: comparisons, region membership, logic, temporal operators with
+their intervals, and quantifiers over groups of vehicles and regions → typed IR.
+
+``FormulaElaborator`` is one half of the checker's elaborator; the other half,
+``stlc.semantics.check.elaborate.ExpressionElaborator``, evaluates the expressions that formulas
+compare (both are ``Context`` subclasses, put together by ``stlc.semantics.check.program``).  Every
+predicate must compare finite numbers: ``x <= inf`` is STL207 where it is written.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from dataclasses import dataclass
+
+from stlc.diagnostics import Span
+from stlc.frontend import ast
+from stlc.semantics import ir
+from stlc.semantics.check import units
+from stlc.semantics.check.context import Context, Scope, misaligned, nearest_hint
+from stlc.semantics.check.values import (
+    ERROR,
+    ErrorV,
+    Form,
+    GroupV,
+    HumanV,
+    Num,
+    RegionV,
+    Sym,
+    Value,
+    VehicleV,
+    add,
+    broadcast,
+    const,
+    finite_expr,
+    kind_name,
+    mul,
+    neg,
+    sub,
+    to_sym,
+)
+
+DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
+               "`regions` or a list like [uav1, uav2]")
+
+
+class FormulaElaborator(Context):
+    """The formula half of the elaborator (``value`` is ``ExpressionElaborator``'s)."""
+
+    def formula(self, node: ast.Node, scope: Scope) -> ir.Formula | None:
+        v = self.value(node, scope)
+        if isinstance(v, Form):
+            return v.f
+        if isinstance(v, ErrorV):
+            return None
+        if isinstance(v, (Num, Sym)):
+            self.err("STL201", "expected a formula, found a number", node.span,
+                     "compare it with something, e.g. `... >= 0`")
+        else:
+            self.err("STL201", f"expected a formula, found {kind_name(v)}", node.span)
+        return None
+
+    def _v_not(self, n: ast.Not, scope: Scope) -> Value:
+        f = self.formula(n.arg, scope)
+        return ERROR if f is None else Form(ir.Not(f, n.span))
+
+    def _v_logic(self, n: ast.Logic, scope: Scope) -> Value:
+        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
+        if a is None or b is None:
+            return ERROR
+        if n.op == "implies":
+            return Form(ir.Implies(a, b, n.span))
+        cls = ir.And if n.op == "and" else ir.Or
+        return Form(cls((a, b), n.span))
+
+    def interval(self, iv: ast.Interval | None, scope: Scope) -> tuple[float, float] | None:
+        if iv is None:
+            return 0.0, math.inf
+        lo = self.number(iv.lo, scope, units.TIME, "a time bound")
+        hi = self.number(iv.hi, scope, units.TIME, "a time bound")
+        if lo is None or hi is None:
+            return None
+        ok = True
+        for t, node in ((lo, iv.lo), (hi, iv.hi)):
+            if math.isnan(t):
+                self.err("STL207", "time bound is not a number", node.span,
+                         "check the arithmetic: `0 * inf` and `inf - inf` are undefined")
+                ok = False
+            elif t < 0:
+                self.err("STL301", f"negative time bound {t:g} s", node.span,
+                         "time bounds are relative to now and must be >= 0")
+                ok = False
+        if ok and math.isinf(lo):
+            self.err("STL207", "the lower time bound must be finite", iv.lo.span,
+                     "only the upper bound may be `inf` (unbounded)")
+            ok = False
+        if ok and lo > hi:
+            self.err("STL302", f"interval bounds out of order: [{lo:g}, {hi:g}]", iv.span,
+                     f"did you mean [{hi:g}, {lo:g}]?")
+            ok = False
+        step = self.step
+        if ok and step:
+            for t, node in ((lo, iv.lo), (hi, iv.hi)):
+                if misaligned(t, step):
+                    self.err("STL303", f"time bound {t:g} s is not a multiple of the mission "
+                             f"step {step:g} s", node.span, nearest_hint(t, step))
+                    ok = False
+        return (lo, hi) if ok else None
+
+    def _v_temporal(self, n: ast.Temporal, scope: Scope) -> Value:
+        f = self.formula(n.arg, scope)
+        if n.op == "next":
+            return ERROR if f is None else Form(ir.Next(f, n.span))
+        iv = self.interval(n.interval, scope)
+        if f is None or iv is None:
+            return ERROR
+        cls = ir.Always if n.op == "always" else ir.Eventually
+        return Form(cls(iv[0], iv[1], f, n.span))
+
+    def _v_until(self, n: ast.Until, scope: Scope) -> Value:
+        a, b = self.formula(n.left, scope), self.formula(n.right, scope)
+        iv = self.interval(n.interval, scope)
+        if a is None or b is None or iv is None:
+            return ERROR
+        return Form(ir.Until(iv[0], iv[1], a, b, n.span))
+
+    def _v_quant(self, n: ast.Quant, scope: Scope) -> Value:
+        dom = self.value(n.domain, scope)
+        if isinstance(dom, ErrorV):
+            return dom
+        if not isinstance(dom, GroupV):
+            return self.err("STL208", f"cannot range over {kind_name(dom)}", n.domain.span,
+                            DOMAIN_HINT)
+        bad = [v for v in dom.items if not isinstance(v, (VehicleV, RegionV, HumanV))]
+        if bad:  # an explicit list `[uav1, uav2]` may hold anything
+            return self.err("STL208", f"a quantifier ranges over vehicles, regions or humans, "
+                            f"the list holds {kind_name(bad[0])}", n.domain.span, DOMAIN_HINT)
+        if len(set(n.names)) != len(n.names):
+            return self.err("STL102", "the same name is bound twice", n.span)
+        combos = list(itertools.combinations(dom.items, len(n.names)))
+        parts = []
+        for combo in combos:
+            f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
+            if f is None:
+                return ERROR
+            parts.append(f)
+        if not parts:
+            return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
+        if len(parts) == 1:
+            return Form(parts[0])
+        return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))
+
+    def _v_compare(self, n: ast.Compare, scope: Scope) -> Value:
+        a, b = self.value(n.left, scope), self.value(n.right, scope)
+        pair = self._numeric_pair(a, b, n)
+        if pair is None:
+            return ERROR
+        sa, sb = pair
+        items = broadcast(sa, sb)
+        if items is None:
+            return self.err("STL205", f"cannot compare {len(sa.items)} with {len(sb.items)} "
+                            "components", n.span)
+        if not all(finite_expr(x) and finite_expr(y) for x, y in items):
+            return self._infinite(n.span)
+        label = self.text(n.span)
+        preds = []
+        la, lb = _labels(sa, len(items)), _labels(sb, len(items))
+        for k, (x, y) in enumerate(items):
+            e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
+            lab = label if len(items) == 1 else f"{label} [{k + 1}]"
+            upper = n.op in ("<", "<=")
+            bound = None
+            if isinstance(y, ir.Const) and not isinstance(x, ir.Const):
+                bound = ir.Bound(la[k], "upper" if upper else "lower", y.value, x,
+                                 _ast_calls(n.left))
+            elif isinstance(x, ir.Const) and not isinstance(y, ir.Const):
+                bound = ir.Bound(lb[k], "lower" if upper else "upper", x.value, y,
+                                 _ast_calls(n.right))
+            preds.append(ir.Pred(e, lab, n.span, bound))
+        return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
+
+    def _infinite(self, span: Span) -> ErrorV:
+        return self.err("STL207", "a comparison needs finite numbers on both sides", span,
+                        "`inf` may only be the upper bound of a time interval; drop a "
+                        "comparison with `inf` (it always holds or never does)")
+
+    def _numeric_pair(self, a: Value, b: Value, n) -> tuple[Sym, Sym] | None:
+        if isinstance(a, ErrorV) or isinstance(b, ErrorV):
+            return None
+        for v, node in ((a, n.left), (b, getattr(n, "right", None) or n)):
+            if isinstance(v, Form):
+                self.err("STL202", "expected a number, found a formula", node.span,
+                         "comparisons take numbers or signals on both sides")
+                return None
+            if not isinstance(v, (Num, Sym)):
+                self.err("STL202", f"expected a number, found {kind_name(v)}", node.span)
+                return None
+        if not units.compatible(a.dim, b.dim):  # type: ignore[union-attr]
+            self.err("STL204", f"unit mismatch: comparing {units.describe(a.dim)} with "  # type: ignore
+                     f"{units.describe(b.dim)}", n.span,  # type: ignore[union-attr]
+                     _unit_hint(b.dim, a.dim))  # type: ignore[union-attr]
+            return None
+        sa = to_sym(a) if isinstance(a, Num) else a
+        sb = to_sym(b) if isinstance(b, Num) else b
+        return sa, sb  # type: ignore[return-value]
+
+    def _v_in(self, n: ast.In, scope: Scope) -> Value:
+        v = self.value(n.arg, scope)
+        if isinstance(v, ErrorV):
+            return v
+        if isinstance(n.region, ast.Range):
+            lo, hi = self.value(n.region.lo, scope), self.value(n.region.hi, scope)
+            p1 = self._numeric_pair(v, lo, _Pair(n.arg, n.region.lo, n.span))
+            p2 = self._numeric_pair(v, hi, _Pair(n.arg, n.region.hi, n.span))
+            if p1 is None or p2 is None:
+                return ERROR
+            i1, i2 = broadcast(*p1), broadcast(*p2)
+            if i1 is None or i2 is None:
+                return self.err("STL205", "range and value sizes do not match", n.span)
+            if not all(finite_expr(e) for pair in i1 + i2 for e in pair):
+                return self._infinite(n.span)
+            label = self.text(n.span)
+            preds = []
+            lv = _labels(v, len(i1)) if isinstance(v, Sym) else [label] * len(i1)
+            calls = _ast_calls(n.arg)
+            for k, ((x, lo_e), (_, hi_e)) in enumerate(zip(i1, i2)):
+                b_lo = (ir.Bound(lv[k], "lower", lo_e.value, x, calls)
+                        if isinstance(lo_e, ir.Const) else None)
+                b_hi = (ir.Bound(lv[k], "upper", hi_e.value, x, calls)
+                        if isinstance(hi_e, ir.Const) else None)
+                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span, b_lo))
+                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span, b_hi))
+            f: ir.Formula = ir.And(tuple(preds), n.span)
+        else:
+            reg = self.value(n.region, scope)
+            if isinstance(reg, ErrorV):
+                return reg
+            if not isinstance(reg, RegionV):
+                return self.err("STL208", f"expected a region after `in`, found {kind_name(reg)}",
+                                n.region.span, "regions are boxes: workspace, obstacles, "
+                                "targets, a human's regions, or box(lo, hi)")
+            if isinstance(v, Num):
+                v = to_sym(v)
+            if not isinstance(v, Sym) or len(v.items) != 3:
+                return self.err("STL205", "only a 3-D position can be in a region",
+                                n.arg.span, "e.g. `uav1.pos in workspace`")
+            if not units.compatible(v.dim, units.LENGTH):
+                return self.err("STL204", "a region holds positions, found "
+                                f"{units.describe(v.dim)}", n.arg.span)
+            f = box_membership(v.items, reg, self.text(n.span), n.span)
+        return Form(ir.Not(f, n.span) if n.negated else f)
+
+    def _v_range(self, n: ast.Range, scope: Scope) -> Value:
+        return self.err("STL208", "a range [lo, hi] may only follow `in`", n.span)
+
+    def _v_interval(self, n: ast.Interval, scope: Scope) -> Value:  # pragma: no cover
+        return self.err("STL208", "unexpected interval", n.span)
+
+
+@dataclass
+class _Pair:
+    left: ast.Node
+    right: ast.Node
+    span: Span
+
+
+# ---------------------------------------------------------------- shared helpers
+
+
+def _ast_calls(node: object) -> frozenset[str]:
+    """Names of the functions called anywhere in an expression's syntax tree."""
+    out: set[str] = set()
+    stack = [node]
+    while stack:
+        x = stack.pop()
+        if isinstance(x, tuple):
+            stack.extend(x)
+        elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+            if isinstance(x, ast.Call):
+                out.add(x.fn)
+            stack.extend(getattr(x, f.name) for f in dataclasses.fields(x)
+                         if f.name != "span")
+    return frozenset(out)
+
+
+def _labels(v: Sym, n: int) -> list[str]:
+    """Component names of a signal value, one per compared component."""
+    labels = list(v.labels) or [""]
+    return labels if len(labels) == n else [labels[0]] * n
+
+
+def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:
+    """``p in box`` as six predicates, in the human's frame when the box is attached to one."""
+    box = reg.box
+    if box.frame is not None:
+        p = world_to_frame(p, box.frame)
+    preds = []
+    for k, axis in enumerate("xyz"):
+        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span))
+        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span))
+    return ir.And(tuple(preds), span)
+
+
+def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
+    """R(att)ᵀ (p − pos) with R = Rz(yaw) Ry(pitch) Rx(roll), pose as IR parameters."""
+    d = [sub(p[k], ir.Param(f"{human}.pos.{a}")) for k, a in enumerate("xyz")]
+    r, pi_, y = (ir.Param(f"{human}.att.{a}") for a in "xyz")
+    cr, sr = ir.Call("cos", (r,)), ir.Call("sin", (r,))
+    cp, sp = ir.Call("cos", (pi_,)), ir.Call("sin", (pi_,))
+    cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
+    # rows of R^T = columns of R
+    R = [
+        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)),
+         add(mul(mul(cy, sp), cr), mul(sy, sr))],
+        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)),
+         sub(mul(mul(sy, sp), cr), mul(cy, sr))],
+        [neg(sp), mul(cp, sr), mul(cp, cr)],
+    ]
+    out = []
+    for j in range(3):  # (R^T d)_j = sum_i R[i][j] d_i
+        acc: ir.Expr = const(0.0)
+        for i in range(3):
+            acc = add(acc, mul(R[i][j], d[i]))
+        out.append(acc)
+    return tuple(out)
+
+
+def _unit_hint(want, got) -> str | None:
+    u = units.example_unit(got)
+    return f"write the right-hand side in {u}" if u else None

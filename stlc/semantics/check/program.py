@@ -1,0 +1,96 @@
+"""The checker: AST → ``model.Program`` (vehicles, scenario, missions; formulas as typed IR).
+
+It resolves names (with "did you mean" hints), converts units to SI, tells formulas from
+numbers, checks intervals against the mission step and horizon, rejects duplicates and
+unknown fields, and collects *every* error of the pass before raising ``StlcError``.
+Declaration order matters only for named specs (a spec may use the specs defined before
+it); vehicles, the scenario and constants can appear anywhere in the file.
+
+This is the top of the ``stlc.semantics.check`` package: ``Checker`` puts the two halves of the
+elaborator together on the shared ``Context`` and runs the declaration and mission checks
+in order.  The modules it uses import only ``context`` (and lower layers), never each other.
+"""
+
+from __future__ import annotations
+
+from stlc.diagnostics import StlcError
+from stlc.frontend import ast
+from stlc.semantics import ir, model
+from stlc.semantics.check import builtins, declarations
+from stlc.semantics.check.elaborate import ExpressionElaborator
+from stlc.semantics.check.formulas import FormulaElaborator
+from stlc.semantics.check.mission import check_mission
+from stlc.semantics.check.values import Sym
+
+TOP_KINDS = ("vehicle", "scenario", "mission", "spec", "const", "signal")
+
+
+def check(tree: ast.File) -> model.Program:
+    """Check a parsed file; raise ``StlcError`` with all diagnostics if anything is wrong."""
+    ck = Checker(tree)
+    try:
+        return ck.run()
+    except RecursionError:  # the elaborator guards each value; this is the last resort
+        ck.d.error("STL004", "formula nested too deeply", ck.where,
+                   "name sub-formulas with `spec` instead")
+        raise StlcError(ck.d.diagnostics) from None
+
+
+class Checker(ExpressionElaborator, FormulaElaborator):
+    """One checker pass over a file."""
+
+    functions = builtins.FUNCS
+
+    def uncertain(self, m: ast.Uncertain, human: str | None, attach: bool = True
+                  ) -> model.Normal | None:
+        return declarations.uncertain(self, m, human, attach)
+
+    def run(self) -> model.Program:
+        members = self.tree.members
+        signals = self._signals(members)
+        for s in signals:  # bound first: a constant that reads a signal is STL210, not STL101
+            self.globals.names[s] = Sym((ir.Sig(s),), None, False, (s,))
+        self.consts([m for m in members if isinstance(m, ast.Named) and m.kind == "const"],
+                    self.globals)
+        for m in members:
+            if isinstance(m, ast.Block) and m.kind == "vehicle":
+                self.where = m.span
+                declarations.vehicle(self, m)
+        scen = [m for m in members if isinstance(m, ast.Block) and m.kind == "scenario"]
+        for extra in scen[1:]:
+            self.d.error("STL102", "a file has one scenario block", extra.span,
+                         "merge the scenario blocks")
+        if scen:
+            declarations.scenario(self, scen[0])
+        declarations.bind_world(self, self.globals)
+        specs, spans = self.named_specs([m for m in members if isinstance(m, ast.Named)
+                                         and m.kind == "spec"], self.globals, None)
+        missions: dict[str, model.Mission] = {}
+        for m in members:
+            self.where = m.span
+            if isinstance(m, ast.Block) and m.kind == "mission":
+                mis = check_mission(self, m, specs)
+                if mis is not None:
+                    missions[mis.name] = mis
+            elif isinstance(m, ast.Block) and m.kind not in ("vehicle", "scenario"):
+                self.bad_kind(m.kind, m.span, TOP_KINDS, "at the top level")
+            elif isinstance(m, ast.Named) and m.kind not in ("spec", "const"):
+                self.bad_kind(m.kind, m.span, TOP_KINDS, "at the top level")
+            elif isinstance(m, (ast.Field, ast.Require, ast.Objective, ast.Uncertain)):
+                self.d.error("STL108", "this belongs inside a block", m.span,
+                             "put fields in a `vehicle`, `scenario` or `mission` block")
+        self.d.raise_if_failed()
+        return model.Program(
+            file=self.tree.path, source=self.tree.source, signals=tuple(signals), specs=specs,
+            spec_spans=spans, vehicles=self.vehicles,
+            scenario=model.Scenario(tuple(self.regions), tuple(self.humans.values())),
+            missions=missions, params=self.params)
+
+    def _signals(self, members) -> list[str]:
+        out: list[str] = []
+        for m in members:
+            if isinstance(m, ast.Signals):
+                for name in m.names:
+                    if self.define(name, m.span, "signal"):
+                        out.append(name)
+        return out

@@ -1,0 +1,203 @@
+"""Values the checker computes while it elaborates the AST, and IR smart constructors.
+
+Constant data (``Num``: scalars, vectors and matrices in SI units) is evaluated at check
+time; signal expressions (``Sym``) are tuples of scalar IR expressions, one per vector
+component; formulas are ``Form``; declared things (vehicles, humans, regions, groups) are
+references.  ``ErrorV`` stands for a sub-expression that already produced a diagnostic, so
+that one mistake is reported once and checking goes on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from stlc.semantics import ir, model, nnf
+from stlc.semantics.check.units import Dim
+
+
+@dataclass(frozen=True)
+class Num:
+    v: np.ndarray  # float array, shape () / (n,) / (n, m)
+    dim: Dim | None
+
+    @property
+    def is_scalar(self) -> bool:
+        return self.v.ndim == 0
+
+
+@dataclass(frozen=True)
+class Sym:
+    items: tuple[ir.Expr, ...]
+    dim: Dim | None
+    vector: bool
+    labels: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Form:
+    f: ir.Formula
+
+
+@dataclass(frozen=True)
+class RegionV:
+    name: str
+    box: model.Box
+
+
+@dataclass(frozen=True)
+class VehicleV:
+    vehicle: model.Vehicle
+
+
+@dataclass(frozen=True)
+class HumanV:
+    human: model.Human
+
+
+@dataclass(frozen=True)
+class GroupV:
+    kind: str
+    items: tuple  # of values
+
+
+@dataclass(frozen=True)
+class DistV:
+    mean: np.ndarray
+    cov: np.ndarray
+    dim: Dim | None
+
+
+@dataclass(frozen=True)
+class StrV:
+    s: str
+
+
+@dataclass(frozen=True)
+class RotorsV:
+    rotors: tuple[model.Rotor, ...]
+
+
+@dataclass(frozen=True)
+class ErrorV:
+    pass
+
+
+ERROR = ErrorV()
+
+Value = Num | Sym | Form | RegionV | VehicleV | HumanV | GroupV | DistV | StrV | RotorsV | ErrorV
+
+
+def kind_name(v: Value) -> str:
+    return {
+        Num: "a number", Sym: "a signal expression", Form: "a formula", RegionV: "a region",
+        VehicleV: "a vehicle", HumanV: "a human", GroupV: "a group", DistV: "a distribution",
+        StrV: "a string", RotorsV: "a rotor list", ErrorV: "an erroneous value",
+    }[type(v)]
+
+
+# ---------------------------------------------------------------- IR smart constructors
+
+
+def const(x: float) -> ir.Const:
+    return ir.Const(float(x))
+
+
+def is_const(e: ir.Expr, value: float | None = None) -> bool:
+    return isinstance(e, ir.Const) and (value is None or e.value == value)
+
+
+def add(a: ir.Expr, b: ir.Expr) -> ir.Expr:
+    if isinstance(a, ir.Const) and isinstance(b, ir.Const):
+        return const(a.value + b.value)
+    if is_const(b, 0.0):
+        return a
+    if is_const(a, 0.0):
+        return b
+    if isinstance(b, ir.Const) and b.value < 0:
+        return ir.Bin("-", a, const(-b.value))
+    return ir.Bin("+", a, b)
+
+
+def sub(a: ir.Expr, b: ir.Expr) -> ir.Expr:
+    if isinstance(a, ir.Const) and isinstance(b, ir.Const):
+        return const(a.value - b.value)
+    if is_const(b, 0.0):
+        return a
+    if is_const(a, 0.0):
+        return neg(b)
+    return ir.Bin("-", a, b)
+
+
+def mul(a: ir.Expr, b: ir.Expr) -> ir.Expr:
+    if isinstance(a, ir.Const) and isinstance(b, ir.Const):
+        return const(a.value * b.value)
+    if is_const(a, 1.0):
+        return b
+    if is_const(b, 1.0):
+        return a
+    if is_const(a, 0.0) or is_const(b, 0.0):
+        return const(0.0)
+    return ir.Bin("*", a, b)
+
+
+def div(a: ir.Expr, b: ir.Expr) -> ir.Expr:
+    if isinstance(a, ir.Const) and isinstance(b, ir.Const) and b.value != 0:
+        return const(a.value / b.value)
+    if is_const(b, 1.0):
+        return a
+    return ir.Bin("/", a, b)
+
+
+def neg(a: ir.Expr) -> ir.Expr:
+    return nnf.negate_expr(a)
+
+
+def call(fn: str, *args: ir.Expr) -> ir.Expr:
+    if all(isinstance(a, ir.Const) for a in args):
+        vals = [a.value for a in args]  # type: ignore[union-attr]
+        with np.errstate(all="ignore"):
+            f = {
+                "abs": abs, "sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "exp": np.exp,
+                "log": np.log, "min": min, "max": max, "atan2": np.arctan2,
+                "angdiff": lambda a, b: float(np.arctan2(np.sin(a - b), np.cos(a - b))),
+            }[fn]
+            r = float(f(*vals))
+        if np.isfinite(r):
+            return const(r)
+    return ir.Call(fn, tuple(args))
+
+
+def to_sym(v: Num) -> Sym:
+    arr = np.atleast_1d(v.v)
+    items = tuple(const(x) for x in arr.ravel())
+    return Sym(items, v.dim, v.v.ndim > 0, tuple(f"{x:g}" for x in arr.ravel()))
+
+
+def broadcast(a: Sym, b: Sym) -> list[tuple[ir.Expr, ir.Expr]] | None:
+    """Pair the components of two signal values (a scalar pairs with every component)."""
+    if len(a.items) == len(b.items):
+        return list(zip(a.items, b.items))
+    if len(a.items) == 1:
+        return [(a.items[0], y) for y in b.items]
+    if len(b.items) == 1:
+        return [(x, b.items[0]) for x in a.items]
+    return None
+
+
+def finite_expr(e: ir.Expr) -> bool:
+    """Are all constants of the expression ``e`` finite?"""
+    stack = [e]
+    while stack:
+        x = stack.pop()
+        match x:
+            case ir.Const(value) if not np.isfinite(value):
+                return False
+            case ir.Neg(a):
+                stack.append(a)
+            case ir.Bin(_, a, b):
+                stack += [a, b]
+            case ir.Call(_, args):
+                stack.extend(args)
+    return True

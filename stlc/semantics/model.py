@@ -1,0 +1,216 @@
+"""The checked program: vehicles, scenario and missions in SI units, formulas as IR.
+
+This is what ``check`` produces from the AST and what every backend, the risk analysis and
+the report consume.  Nothing here refers to the surface syntax except spans (for pointing
+back into the source) and the source text itself (for the report).
+
+Conventions
+-----------
+* lengths m, times s, angles rad, masses kg, forces N, frequencies Hz.
+* Euler angles ``att = (roll, pitch, yaw)``, rotation R = Rz(yaw) Ry(pitch) Rx(roll)
+  (body → world).
+* A region attached to a human is a box in that human's frame: a world point p is inside
+  when ``R(att_h)^T (p - pos_h)`` lies in the box.  In formulas the human pose enters as
+  ``Param`` leaves named ``"<human>.pos.x"`` … ``"<human>.att.z"``; ``Program.params`` holds
+  their nominal values.
+* Signal channels of a vehicle ``v`` (names used by traces, the monitor and the backends):
+  ``v.pos.{x,y,z}``, ``v.vel.{x,y,z}``, ``v.att.{x,y,z}``, ``v.rate.{x,y,z}``,
+  ``v.force.{1..n}`` (multirotor rotor forces ξ), ``v.dforce.{1..n}`` (inputs ξ̇),
+  ``v.acc.{x,y,z}`` (point-mass input), ``v.payload`` (point-mass diverters on board).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from stlc.diagnostics import Span
+from stlc.semantics.ir import Formula
+
+Vec3 = tuple[float, float, float]
+NO_SPAN = Span.none()
+
+AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True, slots=True)
+class Rotor:
+    position: Vec3  # in the body frame, m
+    axis: Vec3  # unit thrust direction in the body frame
+    spin: int  # +1 counter-clockwise seen from above (reaction torque -z), -1 clockwise
+
+
+@dataclass(frozen=True, slots=True)
+class Multirotor:
+    name: str
+    mass: float
+    inertia: tuple[Vec3, Vec3, Vec3]
+    c_f: float  # rotor force = c_f * Omega, Omega = (rotor speed in Hz)^2
+    c_tau: float  # drag torque = c_tau * Omega
+    force_min: float
+    force_max: float
+    rotors: tuple[Rotor, ...]
+    start_pos: Vec3
+    start_att: Vec3 = (0.0, 0.0, 0.0)
+    start_vel: Vec3 = (0.0, 0.0, 0.0)
+    start_rate: Vec3 = (0.0, 0.0, 0.0)
+    dforce_max: float | None = None  # bound on |ξ̇| (N/s), optional
+    gravity: float = 9.81
+    span: Span = field(default=NO_SPAN, compare=False)
+
+    kind = "multirotor"
+
+    def channels(self) -> list[str]:
+        n = len(self.rotors)
+        out = [f"{self.name}.{f}.{a}" for f in ("pos", "att", "vel", "rate") for a in AXES]
+        out += [f"{self.name}.force.{i + 1}" for i in range(n)]
+        return out
+
+    def input_channels(self) -> list[str]:
+        return [f"{self.name}.dforce.{i + 1}" for i in range(len(self.rotors))]
+
+
+@dataclass(frozen=True, slots=True)
+class PointMass:
+    name: str
+    vel_max: Vec3
+    acc_max: Vec3
+    start_pos: Vec3
+    start_vel: Vec3 = (0.0, 0.0, 0.0)
+    capacity: int | None = None
+    mass: float | None = None
+    span: Span = field(default=NO_SPAN, compare=False)
+
+    kind = "point_mass"
+
+    def channels(self) -> list[str]:
+        return [f"{self.name}.{f}.{a}" for f in ("pos", "vel") for a in AXES]
+
+    def input_channels(self) -> list[str]:
+        return [f"{self.name}.acc.{a}" for a in AXES]
+
+
+Vehicle = Multirotor | PointMass
+
+
+@dataclass(frozen=True, slots=True)
+class Box:
+    """Axis-aligned box ``lo <= p <= hi``; ``frame`` names a human when the box is in that
+    human's frame (else world frame)."""
+
+    lo: Vec3
+    hi: Vec3
+    frame: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Region:
+    name: str
+    kind: str  # workspace | obstacle | region | target | station | home
+    box: Box
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Normal:
+    """A Gaussian over the named parameters (e.g. operator.pos.x, .y, .z)."""
+
+    params: tuple[str, ...]
+    mean: tuple[float, ...]
+    cov: tuple[tuple[float, ...], ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Human:
+    name: str
+    pos: Vec3
+    att: Vec3
+    uncertain: tuple[Normal, ...] = ()
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    regions: tuple[Region, ...] = ()
+    humans: tuple[Human, ...] = ()
+
+    def by_kind(self, kind: str) -> tuple[Region, ...]:
+        return tuple(r for r in self.regions if r.kind == kind)
+
+    def region(self, name: str) -> Region | None:
+        return next((r for r in self.regions if r.name == name), None)
+
+
+@dataclass(frozen=True, slots=True)
+class Smoothing:
+    method: str = "gkl"  # gkl (Gilpin–Kurtz–Lin) | lse (log-sum-exp)
+    lam: float = 10.0
+
+
+@dataclass(frozen=True, slots=True)
+class Objective:
+    """minimise  energy_weight·E + forward_weight·Σ(1 − v_for/v*)² − robustness_weight·ρ̃"""
+
+    robustness_weight: float = 1.0
+    energy_weight: float = 0.0
+    forward_weight: float = 0.0
+    forward_speed: float | None = None  # v*
+
+
+@dataclass(frozen=True, slots=True)
+class RiskCase:
+    name: str
+    distributions: tuple[Normal, ...]  # override / add uncertain parameters for this case
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class RiskConfig:
+    cases: tuple[RiskCase, ...]
+    K: int = 15000
+    betas: tuple[float, ...] = (0.7, 0.8, 0.9)
+    delta: float = 0.01
+    seed: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class ReplanConfig:
+    threshold: float = 1.0  # ζ, m
+    event_period: float = 0.5  # T_e, s
+    waypoint_period: float = 1.0  # T_g, s
+    compute_budget: float = 0.4  # t_c, s
+    specs: tuple[str, ...] = ()  # named specs kept when replanning
+
+
+@dataclass(frozen=True, slots=True)
+class Mission:
+    name: str
+    vehicles: tuple[str, ...]
+    horizon: float
+    step: float
+    specs: dict[str, Formula]  # named specs, each self-contained (references inlined)
+    requirement: Formula
+    objective: Objective = Objective()
+    threshold: float = 0.0  # κ: required smooth robustness
+    smoothing: Smoothing = Smoothing()
+    risk: RiskConfig | None = None
+    replan: ReplanConfig | None = None
+    options: dict[str, float | str] = field(default_factory=dict)
+    span: Span = field(default=NO_SPAN, compare=False)
+    spec_spans: dict[str, Span] = field(default_factory=dict, compare=False)
+    #: paper B's payload rule: dwell to install one item / to refill (s), if given
+    install_time: float | None = None
+    refill_time: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Program:
+    file: str
+    source: str
+    signals: tuple[str, ...] = ()  # declared `signal` names (monitoring files)
+    specs: dict[str, Formula] = field(default_factory=dict)  # top-level specs
+    spec_spans: dict[str, Span] = field(default_factory=dict, compare=False)
+    vehicles: dict[str, Vehicle] = field(default_factory=dict)
+    scenario: Scenario = Scenario()
+    missions: dict[str, Mission] = field(default_factory=dict)
+    params: dict[str, float] = field(default_factory=dict)  # nominal value of every Param
