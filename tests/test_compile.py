@@ -143,8 +143,12 @@ def test_impossible_mission_is_violated(tmp_path):
 # (Table above: the code before the planner form.)  With the planner form (branch nlp),
 # handover_front at 0.5 s ended at exact ≈ 0 (violated) under two of three hash seeds, so it
 # is planned at 0.25 s too; at 0.25 s all three passed with PYTHONHASHSEED=1, handover_left
-# failed (local optimum, -0.49) with PYTHONHASHSEED=2.
-HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.25, "handover_left": 0.25}
+# failed (local optimum, -0.49) with PYTHONHASHSEED=2.  After the pair-width test stopped
+# depending on set order (and the checker's elaboration changed), handover_left at 0.25 s
+# and 0.2 s ends in that local optimum for every seed tried (-0.75, -6.98), at 0.5 s it is
+# satisfied (+0.062) and at the mission's own 0.1 s step satisfied (+0.042): planned at 0.5 s.
+# Coarse-grid fragility of the planner form is a known open problem (issue 12 note).
+HANDOVER_STEPS = {"handover_left_tb": 0.25, "handover_front": 0.25, "handover_left": 0.5}
 
 
 @pytest.fixture(scope="module")
