@@ -55,6 +55,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from stlc.team import AssignmentError, TeamScenario, centre, samples_for
+from stlc.team.cuts import cuts_for, segments, station_shared
 from stlc.team.primitives import min_duration
 
 #: options passed to HiGHS; presolve off: on these small models it costs more than it saves
@@ -209,6 +210,8 @@ class _Model:
             # ... and no drone refills at another drone's home: a station is used by one
             # drone at most (usage binaries y[d, s] after the arc variables), so no two
             # drones ever share a 2 m station that cannot keep them Γ_dis apart
+            # (added lazily, like eq. 7e: most instances never put two drones in a station)
+            shared: list[tuple[dict[int, float], float]] = []
             for s in range(ns):
                 ys = []
                 for d in range(nd):
@@ -216,11 +219,12 @@ class _Model:
                     ys.append(y)
                     for k, a in enumerate(arcs):
                         if a.drone == d and a.head == ("S", s):
-                            ub.append(({k: 1.0, y: -1.0}, 0.0))
-                ub.append(({y: 1.0 for y in ys}, 1.0))
+                            shared.append(({k: 1.0, y: -1.0}, 0.0))
+                shared.append(({y: 1.0 for y in ys}, 1.0))
             n_extra = nd * ns
         else:
-            n_extra = 0
+            n_extra, shared = 0, []
+        self.station_rows = shared
         self.seen: set[frozenset] = set()
         self.n, self.eq, self.ub = n + n_extra, eq, ub
         self.cost = np.concatenate([[a.cost for a in arcs], np.zeros(n_extra)])
@@ -257,101 +261,9 @@ class _Model:
         return np.round(x.value).astype(int), float(prob.value)
 
 
-def _components(chosen: list[Arc]) -> dict[Node, Node]:
-    parent: dict[Node, Node] = {}
-
-    def find(v: Node) -> Node:
-        parent.setdefault(v, v)
-        while parent[v] != v:
-            parent[v] = parent[parent[v]]
-            v = parent[v]
-        return v
-
-    for a in chosen:
-        parent[find(a.tail)] = find(a.head)
-    return {v: find(v) for v in list(parent)}
-
-
-def _segments(chosen: list[Arc]) -> list[tuple[Node, list[int], Node]]:
-    """(start node, targets in order, end node) for every run that leaves the depot or a
-    station (targets have one successor each, so the runs are unique)."""
-    succ = {a.tail: a.head for a in chosen if a.tail[0] == "T"}
-    out = []
-    for a in chosen:
-        if a.tail[0] in "DS":
-            seq, v = [], a.head
-            while v[0] == "T" and len(seq) <= len(succ):
-                seq.append(v[1])
-                v = succ[v]
-            out.append((a.tail, seq, v))
-    return out
-
-
-def _cuts_for(model: _Model, d: int, chosen: list[Arc]) -> list[tuple[dict[int, float], float]]:
-    """Violated lazy cuts (rows ``a·x ≤ b``) for drone ``d``'s arcs."""
-    arcs, cap = model.arcs, model.sc.drones[d].capacity
-    comp = _components(chosen)
-    main = comp.get(("D", d))
-    cuts: list[tuple[dict[int, float], float]] = []
-    groups: dict[Node, set[Node]] = {}
-    for v, r in comp.items():
-        groups.setdefault(r, set()).add(v)
-    for root, nodes in groups.items():
-        if root == main:
-            continue
-        targets = {v[1] for v in nodes if v[0] == "T"}
-        has_station = any(v[0] == "S" for v in nodes)
-        entering = {k: -1.0 for k, a in enumerate(arcs)
-                    if a.drone == d and a.head in nodes and a.tail not in nodes}
-        for j in targets:
-            row = dict(entering)
-            for k, a in enumerate(arcs):
-                if a.drone == d and a.head == ("T", j):
-                    row[k] = row.get(k, 0.0) + 1.0
-            cuts.append((row, 0.0))
-        if not has_station:
-            cuts.append(({k: 1.0 for k, a in enumerate(arcs) if a.tail[0] == "T"
-                          and a.head[0] == "T" and a.tail[1] in targets
-                          and a.head[1] in targets}, len(targets) - 1.0))
-    for _, seq, _ in _segments([a for a in chosen if comp[a.tail] == main]):
-        if len(seq) > cap:
-            cuts += _capacity_cuts(model, seq, cap)
-    return cuts
-
-
-def _capacity_cuts(model: _Model, seq: list[int], cap: int) -> list[tuple[dict[int, float], float]]:
-    """Capacity cuts for every window of an over-long run ``seq`` (length > ``cap``): per
-    drone ``e`` with ``c̄_e < |W|``, ``Σ_{i≠j∈W} x_eij ≤ |W| − ⌈|W|/c̄_e⌉``, and the team-wide
-    ``Σ_e Σ_{i≠j∈W} x_eij ≤ |W| − ⌈|W|/max_e c̄_e⌉`` (each valid for every feasible route, so
-    the solver cannot move the violation to another drone)."""
-    caps = [dr.capacity for dr in model.sc.drones]
-    cmax = max(caps)
-    cuts: list[tuple[dict[int, float], float]] = []
-    for lo in range(len(seq)):
-        for hi in range(lo + cap + 1, len(seq) + 1):
-            w = set(seq[lo:hi])
-            if frozenset(w) in model.seen:
-                continue
-            model.seen.add(frozenset(w))
-            inner = [k for k in model.inner_arcs if model.arcs[k].tail[1] in w
-                     and model.arcs[k].head[1] in w]
-            for e, c in enumerate(caps):
-                if 0 < c < len(w):
-                    row = {k: 1.0 for k in inner if model.arcs[k].drone == e}
-                    cuts.append((dict(row), len(w) - math.ceil(len(w) / c)))
-                    # fractional capacity cut: runs of e in W >= (targets of e in W) / c
-                    for k, a in enumerate(model.arcs):
-                        if a.drone == e and a.head[0] == "T" and a.head[1] in w:
-                            row[k] = row.get(k, 0.0) - (1.0 - 1.0 / c)
-                    cuts.append((row, 0.0))
-            if cmax < len(w):
-                cuts.append(({k: 1.0 for k in inner}, len(w) - math.ceil(len(w) / cmax)))
-    return cuts
-
-
 def _route(sc: TeamScenario, d: int, chosen: list[Arc]) -> list[str]:
     """Ordered region names of drone ``d`` (an Euler trail over the runs, from the depot)."""
-    segs = _segments(chosen)
+    segs = segments(chosen)
     first = next(s for s in segs if s[0] == ("D", d))
     out_of: dict[Node, list[tuple[Node, list[int], Node]]] = {}
     for s in segs:
@@ -387,7 +299,10 @@ def _lazy_solve(sc: TeamScenario, arcs: list[Arc], limit: float | None, w: float
         xv, obj = res
         cuts = []
         for d in range(len(sc.drones)):
-            cuts += _cuts_for(model, d, [a for k, a in enumerate(arcs) if xv[k] and a.drone == d])
+            cuts += cuts_for(model, d, [a for k, a in enumerate(arcs) if xv[k] and a.drone == d])
+        if model.station_rows and station_shared(arcs, xv):
+            cuts += model.station_rows
+            model.station_rows = []
         if not cuts:
             return xv, obj
         stats.cuts += len(cuts)
