@@ -303,3 +303,23 @@ def test_real_violated_plan_renders_in_chromium(browser, compiled):
     finally:
         page.close()
     assert outside == [] and errors == [], (outside, errors)
+
+
+def test_real_team_mission_renders_in_chromium(browser, tmp_path):
+    """A compiled team mission (MILP seed + refinement): the team section's Gantt chart and
+    forward-speed plot are drawn, offline, without console errors."""
+    from stlc.cli import main
+
+    out = tmp_path / "team"
+    assert main(["compile", str(REPO / "tests" / "missions" / "team_small.stl"), "-o",
+                 str(out), "-q"]) == 0
+    page, errors, outside = open_report(browser, out / "report.html")
+    try:
+        assert_page_sound(page)
+        team = page.inner_text("#team")
+        assert "uav1" in team and "uav2" in team and "MILP only" in team
+        assert page.locator("#team .js-plotly-plot").count() >= 2  # Gantt + forward speed
+        screenshot(page, "report_real_team_mission.png")
+    finally:
+        page.close()
+    assert outside == [] and errors == [], (outside, errors)
