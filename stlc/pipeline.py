@@ -117,6 +117,9 @@ def _team_comparisons(problem, sols: list, quiet: bool) -> None:
     final.comparisons.append(Comparison("MILP only", dict(seed.channels)))
     final.timing.update({k: v for k, v in seed.timing.items() if k in ("milp_s", "seed_s")})
     final.solver["seed"] = dict(seed.solver)
+    if seed.solver.get("assignment") == "greedy":
+        final.notes.append("the task-assignment MILP stopped on its time budget (not "
+                           "converged): the routes are the greedy assignment, not optimal")
     for name, variant in problem.mission.options.get("compare", []):
         if variant is None or variant.forward_weight > 0 or problem.objective.forward_weight == 0:
             continue

@@ -190,3 +190,31 @@ def test_unreachable_station_and_zero_capacity():
     with pytest.raises(AssignmentError) as err:
         assign(sc0)
     assert err.value.reason == "capacity"
+
+
+def test_time_budget_falls_back_to_a_feasible_greedy_assignment():
+    """With no time for the MILP the routes come from the greedy rule: every target once,
+    capacities and refills respected (the seed installs everything by the payload rule),
+    and the stats say the MILP did not converge."""
+    from pathlib import Path
+
+    from stlc.pipeline import load
+    from stlc.team.payload import payload_team
+    from stlc.team.seed import scenario_from_program, seed_plan
+
+    path = Path(__file__).parent / "missions" / "team_small.stl"
+    program = load(str(path)).program
+    sc = scenario_from_program(program, program.missions["team_small"], separation=2.0)
+    routes, stats = assign(sc, budget_s=0.0)
+    assert stats.method == "greedy"
+    served = [r for rs in routes.values() for r in rs if r.startswith("t")]
+    assert sorted(served) == ["ta", "tb", "tc"]
+    homes = [rs[-1] for rs in routes.values()]
+    assert len(set(homes)) == len(homes)  # as many stations as drones: one home each
+    plan = seed_plan(sc, routes)
+    payload, events = payload_team(plan.times, plan.pos, sc)
+    assert sorted(e.region for e in events if e.kind == "install") == ["ta", "tb", "tc"]
+    assert all(c.min() >= 0 for c in payload.values())
+    exact, _ = assign(sc)
+    assert stats.objective >= sum(route_time(sc, i, exact[d.name])
+                                  for i, d in enumerate(sc.drones)) - 1e-9

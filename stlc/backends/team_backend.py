@@ -119,7 +119,10 @@ class MilpSeed(Backend):
             robustness_exact=float("nan"), robustness_smooth=float("nan"), specs={},
             energy=0.0, times=plan.times, channels=plan_channels(plan),
             timing={"milp_s": stats.wall_s, "seed_s": seed_s},
-            solver={"name": self.name, "status": str(SolverStatus.OPTIMAL),
+            solver={"name": self.name,
+                    "status": str(SolverStatus.OPTIMAL if stats.method == "milp"
+                                  else SolverStatus.MAX_TIME),
+                    "assignment": stats.method,
                     "milp_rounds": stats.rounds, "lazy_cuts": stats.cuts,
                     "objective_s": stats.objective, "milp_cpu_s": stats.cpu_s},
             routes={d: list(r) for d, r in plan.route.items()}, visits=list(plan.visits))

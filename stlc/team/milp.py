@@ -61,6 +61,7 @@ from stlc.team.primitives import min_duration
 #: options passed to HiGHS; presolve off: on these small models it costs more than it saves
 #: (4×11 mission: 2.3 s instead of 3.5 s CPU over the lazy rounds)
 HIGHS_OPTIONS: dict[str, object] = {"presolve": "off"}
+BUDGET_S = 30.0  # wall seconds for the exact MILP before the greedy fallback
 Node = tuple[str, int]  # ("D", drone) | ("T", target) | ("S", station) | ("E", 0)
 
 
@@ -72,6 +73,8 @@ class AssignStats:
     cuts: int = 0  # lazy cuts added
     objective: float = 0.0
     drone_time: dict[str, float] = field(default_factory=dict)  # route time per drone, s
+    #: "milp" (optimal) or "greedy" (the MILP exceeded its time budget: not optimal)
+    method: str = "milp"
 
 
 @dataclass(frozen=True, slots=True)
@@ -241,7 +244,7 @@ class _Model:
         a = sp.csr_matrix((data, (ri, ci)), shape=(len(rows), n))
         return a, np.array([b for _, b in rows])
 
-    def solve(self) -> tuple[np.ndarray, float] | None:
+    def solve(self, time_limit: float | None = None):
         x = cp.Variable(self.n, boolean=True)
         a_eq, b_eq = self._matrix(self.eq, self.n)
         cons = [a_eq @ x == b_eq]
@@ -255,7 +258,13 @@ class _Model:
                 cons.append(m >= (self.cost * (self.drone_of == d)) @ x)
             obj = obj + self.w * m
         prob = cp.Problem(cp.Minimize(obj), cons)
-        prob.solve(solver=cp.HIGHS, **HIGHS_OPTIONS)
+        opts = dict(HIGHS_OPTIONS)
+        if time_limit is not None:
+            opts["time_limit"] = float(time_limit)
+        prob.solve(solver=cp.HIGHS, **opts)
+        if prob.status == "user_limit" or (time_limit is not None and x.value is None
+                                           and prob.status not in ("infeasible",)):
+            return "time"
         if prob.status not in ("optimal", "optimal_inaccurate") or x.value is None:
             return None
         return np.round(x.value).astype(int), float(prob.value)
@@ -289,11 +298,17 @@ def _route(sc: TeamScenario, d: int, chosen: list[Arc]) -> list[str]:
 
 
 def _lazy_solve(sc: TeamScenario, arcs: list[Arc], limit: float | None, w: float,
-                stats: AssignStats, max_rounds: int) -> tuple[np.ndarray, float] | None:
+                stats: AssignStats, max_rounds: int, deadline: float = math.inf
+                ) -> tuple[np.ndarray, float] | None:
     model = _Model(sc, arcs, limit, w)
     for _ in range(max_rounds):
         stats.rounds += 1
-        res = model.solve()
+        left = deadline - time.perf_counter()
+        if left <= 0:
+            raise _Budget
+        res = model.solve(left if math.isfinite(left) else None)
+        if res == "time":
+            raise _Budget
         if res is None:
             return None
         xv, obj = res
@@ -311,11 +326,18 @@ def _lazy_solve(sc: TeamScenario, arcs: list[Arc], limit: float | None, w: float
                           reason="capacity")
 
 
+class _Budget(Exception):
+    """The MILP exceeded its time budget."""
+
+
 def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
-           max_rounds: int = 200) -> tuple[dict[str, list[str]], AssignStats]:
+           max_rounds: int = 200, budget_s: float = BUDGET_S
+           ) -> tuple[dict[str, list[str]], AssignStats]:
     """Route of every drone (ordered target and station names, ending at its home station
     when there are stations) and the solve statistics.  Raises ``AssignmentError`` when no
-    assignment exists (capacity, reachability, horizon)."""
+    assignment exists (capacity, reachability, horizon).  When the lazy-cut loop exceeds
+    ``budget_s`` seconds the routes come from ``stlc.team.greedy`` instead
+    (``stats.method == "greedy"``: feasible, not optimal)."""
     c0, w0 = time.process_time(), time.perf_counter()
     stats = AssignStats()
     sc = scenario
@@ -323,7 +345,11 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
     _precheck(sc, arcs)
     tail = dwell_times(sc)[1] if sc.stations else 0.0
     limit = sc.horizon - tail
-    res = _lazy_solve(sc, arcs, limit, makespan_weight, stats, max_rounds)
+    try:
+        res = _lazy_solve(sc, arcs, limit, makespan_weight, stats, max_rounds,
+                          w0 + budget_s)
+    except _Budget:
+        return _fallback(sc, stats, limit, c0, w0)
     if res is None:
         free = _lazy_solve(sc, arcs, None, makespan_weight, AssignStats(), max_rounds)
         if free is None:
@@ -342,6 +368,27 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
         routes[dr.name] = _route(sc, d, chosen)
         stats.drone_time[dr.name] = float(sum(a.cost for a in chosen))
     stats.objective = obj
+    stats.cpu_s = time.process_time() - c0
+    stats.wall_s = time.perf_counter() - w0
+    return routes, stats
+
+
+def _fallback(sc: TeamScenario, stats: AssignStats, limit: float, c0: float, w0: float):
+    from stlc.team.greedy import greedy_routes
+
+    vm = {d.name: d for d in sc.drones}
+    routes = greedy_routes(sc, lambda p0, p1, d: leg_time(p0, p1, d.vel_max, d.acc_max,
+                                                          sc.step), dwell_times(sc))
+    names = [d.name for d in sc.drones]
+    for name, r in routes.items():
+        t = route_time(sc, names.index(name), r)
+        if t > limit + 1e-9:
+            raise AssignmentError(f"the greedy assignment (the MILP exceeded its {BUDGET_S:g} s "
+                                  f"budget) does not fit the horizon: {name} needs {t:.1f} s",
+                                  reason="horizon", subject=vm[name].name)
+        stats.drone_time[name] = t
+    stats.method = "greedy"
+    stats.objective = sum(stats.drone_time.values())
     stats.cpu_s = time.process_time() - c0
     stats.wall_s = time.perf_counter() - w0
     return routes, stats
