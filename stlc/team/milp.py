@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import cvxpy as cp
@@ -261,7 +262,9 @@ class _Model:
         opts = dict(HIGHS_OPTIONS)
         if time_limit is not None:
             opts["time_limit"] = float(time_limit)
-        prob.solve(solver=cp.HIGHS, **opts)
+        with warnings.catch_warnings():  # a time-limited solve is judged by its status
+            warnings.simplefilter("ignore", UserWarning)
+            prob.solve(solver=cp.HIGHS, **opts)
         if prob.status == "user_limit" or (time_limit is not None and x.value is None
                                            and prob.status not in ("infeasible",)):
             return "time"
