@@ -99,3 +99,50 @@ def test_cli_writes_team_outputs(tmp_path):
     head = (out / "trajectory.uav1.csv").read_text().splitlines()[0]
     assert head == "t,x,y,z,vx,vy,vz,ax,ay,az,heading"
     assert "uav1.payload" in (out / "trajectory.csv").read_text().splitlines()[0]
+
+
+AERO = """  mass = 1.5 kg
+  rotors = 4
+  disk_area = 0.05 m^2
+  flat_plate_area = 0.01 m^2
+  induced_factor = 1.15
+"""
+
+
+def test_forward_speed_from_declared_aerodynamic_data(tmp_path):
+    """Without `forward_speed`, v* is paper B eq. 8 from each drone's data:
+    v* = sqrt(m / (2 ρ A)) · (4 κ A / (n f))^(1/4)
+       = sqrt(1.5 / (2·1.225·0.05)) · (4·1.15·0.05 / (4·0.01))^(1/4)
+       = 3.49927 · 5.75^(1/4) = 3.49927 · 1.54851 = 5.41865 m/s (by hand),
+    clamped by the planner to hypot(3.1, 3.1) = 4.38406 m/s."""
+    from stlc.backends.team_backend import forward_speed_target
+    from stlc.planning.problem import from_mission
+
+    text = MISSION.read_text().replace("  forward_speed = 2 m/s\n", "")
+    text = text.replace("  capacity = 2\n", "  capacity = 2\n" + AERO)
+    path = tmp_path / "aero.stl"
+    path.write_text(text)
+    program = load(str(path)).program
+    problem = from_mission(program, program.missions["team_small"])
+    v = forward_speed_target(problem)
+    assert set(v) == {"uav1", "uav2"}
+    assert v["uav1"] == pytest.approx(5.41865, rel=1e-5)
+    _, sol = plan(program, program.missions["team_small"])
+    assert sol.status == "satisfied" and sol.solver["forward_cost"] is not None
+
+
+def test_aerodynamic_data_must_be_complete_and_motion_primitive_is_not_an_alias(tmp_path):
+    from stlc.diagnostics import StlcError
+
+    text = MISSION.read_text().replace("  capacity = 2\n", "  capacity = 2\n  rotors = 4\n", 1)
+    path = tmp_path / "partial.stl"
+    path.write_text(text)
+    with pytest.raises(StlcError) as e:
+        load(str(path))
+    assert [d.code for d in e.value.diagnostics] == ["STL104"]
+    assert "disk_area" in e.value.diagnostics[0].message
+    path.write_text(MISSION.read_text().replace("uav1 : point_mass", "uav1 : motion_primitive"))
+    with pytest.raises(StlcError) as e:
+        load(str(path))
+    (d,) = e.value.diagnostics
+    assert d.code == "STL105" and "point_mass" in (d.help or "")

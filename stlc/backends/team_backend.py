@@ -70,6 +70,23 @@ def _diag(problem: PlanningProblem, e) -> Diagnostic:
                       hints.get(getattr(e, "reason", ""), None))
 
 
+def forward_speed_target(problem: PlanningProblem):
+    """v* of paper B: the mission's `forward_speed` if it gives one, else eq. 8 for every
+    drone from its declared aerodynamic data (a dict per drone), else None."""
+    from stlc.team.energy import optimal_forward_speed
+
+    if problem.objective.forward_speed is not None:
+        return problem.objective.forward_speed
+    out = {}
+    for v in problem.vehicles():
+        aero = getattr(v, "aero", None)
+        if aero is None or v.mass is None:
+            return None
+        rotors, disk, flat, kappa, rho = aero
+        out[v.name] = optimal_forward_speed(v.mass, rotors, disk, flat, kappa, rho)
+    return out or None
+
+
 def plan_channels(plan) -> dict[str, np.ndarray]:
     ch: dict[str, np.ndarray] = {}
     for d in plan.pos:
@@ -152,10 +169,17 @@ class TeamRefine(Backend):
             raise ValueError("team refinement needs a seed (run MilpSeed first)")
         obj = problem.objective
         eta = obj.forward_weight if self.eta is None else self.eta
+        v_star = forward_speed_target(problem)
+        if eta > 0 and v_star is None:
+            raise StlcError([Diagnostic(
+                "STL104", f"mission `{problem.mission.name}` minimises `forward_cost` but "
+                "gives no forward speed v*", problem.mission.span,
+                "write `forward_speed = 2.5 m/s` in the mission, or declare each drone's "
+                "mass, rotors, disk_area, flat_plate_area and induced_factor (eq. 8)")])
         t0 = time.perf_counter()
         plan, stats = refine(scenario, solution_plan(problem.seed),
-                             lam=problem.smoothing.lam, kappa=problem.threshold, eta=eta,
-                             v_star=obj.forward_speed)
+                             lam=problem.smoothing.lam, kappa=problem.threshold,
+                             eta=eta, v_star=v_star)
         return plan, stats, time.perf_counter() - t0
 
     def invert(self, raw, inverse, problem: PlanningProblem) -> Solution:

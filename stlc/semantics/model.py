@@ -78,6 +78,9 @@ class PointMass:
     start_vel: Vec3 = (0.0, 0.0, 0.0)
     capacity: int | None = None
     mass: float | None = None
+    #: paper B eq. 8 data for the energy-aware forward speed v*: (rotors, rotor disk area m²,
+    #: equivalent flat-plate area m², induced-power factor, air density kg/m³), or None
+    aero: tuple[int, float, float, float, float] | None = None
     span: Span = field(default=NO_SPAN, compare=False)
 
     kind = "point_mass"

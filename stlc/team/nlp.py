@@ -201,13 +201,15 @@ class TeamNLP:
             total += ca.sum2(self._en_fn.map(len(ks))(vx.T, vy.T, v_star[name]))
         return total
 
-    def forward_cost(self, plan: TeamPlan, v_star: float | None) -> float | None:
+    def forward_cost(self, plan: TeamPlan, v_star) -> float | None:
+        """Σ over drones of eq. 9's term; ``v_star`` is one v* or a v* per drone."""
         if v_star is None:
             return None
         from stlc.team.energy import feasible_forward_speed, forward_cost
 
+        vs = v_star if isinstance(v_star, dict) else {d.name: v_star for d in self.sc.drones}
         return sum(forward_cost(plan.vel[dr.name], self.transit_mask(dr.name),
-                                feasible_forward_speed(v_star, dr.vel_max))
+                                feasible_forward_speed(vs[dr.name], dr.vel_max))
                    for dr in self.sc.drones)
 
     # ------------------------------------------------------------------ packing

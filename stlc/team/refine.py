@@ -107,11 +107,14 @@ def _widen(found: set, n: int, width: int = 2) -> set:
 
 
 def refine(scenario: TeamScenario, seed: TeamPlan, *, lam: float = 10.0, kappa: float = 0.2,
-           eta: float = 0.0, v_star: float | None = None, knot_dt: float = 1.0,
+           eta: float = 0.0, v_star: float | dict[str, float] | None = None,
+           knot_dt: float = 1.0,
            stretch_cap: float = 0.5, dwell_pad: float = 0.5, max_rounds: int = 6,
            buffer: float = 2.0, ipopt: dict | None = None) -> tuple[TeamPlan, dict]:
     """Refine a team seed (route fixed) into a dense plan; returns (plan, stats)."""
-    if eta > 0 and (v_star is None or v_star <= 0):
+    if isinstance(v_star, dict):  # one v* per drone (paper B eq. 8 from each drone's data)
+        v_star = {d.name: v_star[d.name] for d in scenario.drones}
+    if eta > 0 and (v_star is None or min(_per_drone(v_star, scenario).values()) <= 0):
         raise ValueError("eta > 0 needs a positive v_star")
     wall0, cpu0 = time.perf_counter(), time.process_time()
     sched = make_schedule(scenario, seed, knot_dt, stretch_cap, dwell_pad)
@@ -163,7 +166,8 @@ def refine(scenario: TeamScenario, seed: TeamPlan, *, lam: float = 10.0, kappa: 
     plan = generate(None, None)
     r_std = float(x[-1])
     if eta > 0:
-        vs = {d.name: feasible_forward_speed(v_star, d.vel_max) for d in scenario.drones}
+        vs = {d.name: feasible_forward_speed(v, d.vel_max)
+              for d, v in zip(scenario.drones, _per_drone(v_star, scenario).values())}
         stats["v_star"] = vs
         # a little above κ: IPOPT meets the floor to its tolerance, the dense check must too
         plan = generate({"eta": eta, "v_star": vs}, min(kappa + 1e-3, r_std - 1e-3))
@@ -172,6 +176,12 @@ def refine(scenario: TeamScenario, seed: TeamPlan, *, lam: float = 10.0, kappa: 
                  margins=margins(scenario, plan), forward_cost=nlp.forward_cost(plan, v_star),
                  cpu_s=time.process_time() - cpu0, wall_s=time.perf_counter() - wall0)
     return plan, stats
+
+
+def _per_drone(v_star, scenario: TeamScenario) -> dict[str, float]:
+    if isinstance(v_star, dict):
+        return {d.name: float(v_star[d.name]) for d in scenario.drones}
+    return {d.name: float(v_star) for d in scenario.drones}
 
 
 def per_drone_csv(plan: TeamPlan, moving_speed: float = 0.05) -> dict[str, str]:

@@ -43,12 +43,15 @@ def vehicle(ck: Context, b: ast.Block) -> None:
     ck.failed.add(name)  # until it checks
     if b.model == "multirotor":
         v = _multirotor(ck, b)
-    elif b.model in ("point_mass", "motion_primitive"):
+    elif b.model == "point_mass":
         v = _point_mass(ck, b)
     else:
-        ck.d.error("STL105", f"unknown vehicle model `{b.model}`", b.span,
-                   did_you_mean(b.model or "", ["multirotor", "point_mass"]) or
-                   "models: multirotor, point_mass")
+        hint = did_you_mean(b.model or "", ["multirotor", "point_mass"]) or \
+            "models: multirotor, point_mass"
+        if b.model == "motion_primitive":  # paper B's term: its drones are point masses
+            hint = ("paper B's drones are `point_mass` vehicles; the team planner builds "
+                    "their rest-to-rest motion primitives")
+        ck.d.error("STL105", f"unknown vehicle model `{b.model}`", b.span, hint)
         return
     if v is not None:
         ck.vehicles[name] = v
@@ -181,8 +184,8 @@ def _rotors(ck: Context, b: ast.Block, f: dict) -> tuple[model.Rotor, ...] | Non
 
 
 def _point_mass(ck: Context, b: ast.Block) -> model.PointMass | None:
-    f = ck.fields(b, {"vel_max": True, "acc_max": True, "capacity": False, "mass": False},
-                  sub_blocks=("start",))
+    f = ck.fields(b, {"vel_max": True, "acc_max": True, "capacity": False, "mass": False,
+                      **{k: False for k in AERO_FIELDS}}, sub_blocks=("start",))
     vmax = ck.vec(f, "vel_max", 3, units.SPEED)
     amax = ck.vec(f, "acc_max", 3, units.ACCEL)
     cap = ck.num(f, "capacity", units.DIMLESS)
@@ -196,11 +199,40 @@ def _point_mass(ck: Context, b: ast.Block) -> model.PointMass | None:
                    f["capacity"].value.span)
         cap = None
     start = _start(ck, b, {"pos": units.LENGTH, "vel": units.SPEED})
+    aero = _aero(ck, b, f, mass)
     if vmax is None or amax is None or start.get("pos") is None:
         return None
     return model.PointMass(b.name, vmax, amax, start["pos"],  # type: ignore[arg-type]
                            start.get("vel") or (0.0, 0.0, 0.0),
-                           None if cap is None else int(cap), mass, b.span)
+                           None if cap is None else int(cap), mass, aero, b.span)
+
+
+#: paper B eq. 8: the data of the energy-aware forward speed v* (air density optional)
+AERO_FIELDS = {"rotors": units.DIMLESS, "disk_area": units.AREA,
+               "flat_plate_area": units.AREA, "induced_factor": units.DIMLESS,
+               "air_density": (-3, 1, 0, 0)}
+
+
+def _aero(ck: Context, b: ast.Block, f: dict, mass: float | None):
+    given = [k for k in AERO_FIELDS if k in f]
+    if not given:
+        return None
+    vals = {k: ck.num(f, k, AERO_FIELDS[k], positive=True) for k in given}
+    missing = [k for k in ("rotors", "disk_area", "flat_plate_area", "induced_factor")
+               if k not in f] + ([] if mass is not None or "mass" in f else ["mass"])
+    if missing:
+        ck.d.error("STL104", "the energy-aware forward speed (paper B eq. 8) needs "
+                   + ", ".join(f"`{k}`" for k in missing), f[given[0]].span,
+                   "declare mass, rotors, disk_area, flat_plate_area and induced_factor "
+                   "(air_density defaults to 1.225 kg/m^3)")
+        return None
+    if any(v is None for v in vals.values()):
+        return None
+    if vals["rotors"] != round(vals["rotors"]):
+        ck.d.error("STL207", "`rotors` must be a whole number", f["rotors"].value.span)
+        return None
+    return (int(vals["rotors"]), vals["disk_area"], vals["flat_plate_area"],
+            vals["induced_factor"], vals.get("air_density", 1.225))
 
 # ---------------------------------------------------------------- scenario
 
