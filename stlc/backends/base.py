@@ -63,6 +63,14 @@ class Capabilities:
                 f"{len(self.nodes)} formula nodes, functions {sorted(self.functions)}")
 
 
+#: every formula node of the IR after normalisation, and every expression function: what a
+#: backend that lowers the whole smooth semantics supports
+ALL_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
+                       ir.Until, ir.Release, ir.Next})
+ALL_FUNCTIONS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log",
+                           "atan2", "angdiff"})
+
+
 class Backend:
     """Base class: subclasses set ``name``, ``capabilities``, ``STATUS_MAP`` and implement
     ``lower``/``solve``/``invert``; ``accepts`` checks the capabilities."""

@@ -23,30 +23,13 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.analysis import smooth
-from stlc.backends.base import Backend, Capabilities, SolverStatus
+from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
+from stlc.backends.casadi_nlp import STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.output.solution import Comparison, Solution, Verdict
 from stlc.planning.problem import PlanningProblem
-from stlc.semantics import ir
 
-_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
-                    ir.Until, ir.Release, ir.Next})
-_FUNCS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2",
-                    "angdiff"})
-
-STATUS_MAP = {
-    "Solve_Succeeded": SolverStatus.OPTIMAL,
-    "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
-    "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
-    "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
-    "Restoration_Failed": SolverStatus.FAILED,
-    "Error_In_Step_Computation": SolverStatus.FAILED,
-    "Maximum_CpuTime_Exceeded": SolverStatus.MAX_TIME,
-    "Maximum_WallTime_Exceeded": SolverStatus.MAX_TIME,
-    "Search_Direction_Becomes_Too_Small": SolverStatus.ACCEPTABLE,
-    "Invalid_Number_Detected": SolverStatus.FAILED,
-    "User_Requested_Stop": SolverStatus.STOPPED,
-}
+IPOPT_STATUS_MAP = STATUS_MAP  # IPOPT's codes → SolverStatus, for every backend running IPOPT
 
 
 def _pad(a: np.ndarray, n: int) -> np.ndarray:
@@ -57,7 +40,7 @@ def _pad(a: np.ndarray, n: int) -> np.ndarray:
 class KinematicGuess(Backend):
     name = "kinematic guess"
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
-                                nodes=_NODES, functions=_FUNCS)
+                                nodes=ALL_NODES, functions=ALL_FUNCTIONS)
     STATUS_MAP = STATUS_MAP
 
     def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
@@ -111,7 +94,7 @@ class _Lowered:
 class CasadiNlp(Backend):
     name = "casadi/ipopt"
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
-                                nodes=_NODES, functions=_FUNCS)
+                                nodes=ALL_NODES, functions=ALL_FUNCTIONS)
     STATUS_MAP = STATUS_MAP
 
     def __init__(self, quiet: bool = True):

@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
+from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
@@ -102,12 +103,20 @@ IPOPT_DEFAULTS = {
     "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-4, "ipopt.linear_solver": "mumps",
 }
 #: IPOPT's return statuses mapped to the shared solver status
+#: IPOPT's return statuses → the shared ``SolverStatus`` (every backend that runs IPOPT uses
+#: this map; the only user stop is the schedule's iteration limit, hence MAX_ITER)
 STATUS_MAP = {
-    "Solve_Succeeded": "optimal", "Solved_To_Acceptable_Level": "acceptable",
-    "Maximum_Iterations_Exceeded": "max_iter", "Infeasible_Problem_Detected": "infeasible",
-    "Restoration_Failed": "failed", "Error_In_Step_Computation": "failed",
-    "Maximum_CpuTime_Exceeded": "max_time", "Search_Direction_Becomes_Too_Small": "acceptable",
-    "Invalid_Number_Detected": "failed", "User_Requested_Stop": "max_iter",
+    "Solve_Succeeded": SolverStatus.OPTIMAL,
+    "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
+    "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
+    "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
+    "Restoration_Failed": SolverStatus.FAILED,
+    "Error_In_Step_Computation": SolverStatus.FAILED,
+    "Maximum_CpuTime_Exceeded": SolverStatus.MAX_TIME,
+    "Maximum_WallTime_Exceeded": SolverStatus.MAX_TIME,
+    "Search_Direction_Becomes_Too_Small": SolverStatus.STOPPED,  # no convergence test
+    "Invalid_Number_Detected": SolverStatus.FAILED,
+    "User_Requested_Stop": SolverStatus.MAX_ITER,
 }
 
 

@@ -36,6 +36,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import interrupt, vehicles
+from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
     PLAN_MARGIN,
     STATUS_MAP,
@@ -217,13 +218,13 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         exact = exact_robustness(inv.formula, inv, w_, params)
         sm = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, params, lam_, method))
         ret = stats.get("return_status", "")
-        status = STATUS_MAP.get(ret, "failed")
-        if status == "max_iter" and "best_iterate" in stats:
-            status = "stopped"
+        status = STATUS_MAP.get(ret, SolverStatus.FAILED)
+        if status == SolverStatus.MAX_ITER and "best_iterate" in stats:
+            status = SolverStatus.STOPPED
         t_fn = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
         st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_,
                    t_fn, prob.progress.t_verify,
-                   converged=ret in ("Solve_Succeeded", "Solved_To_Acceptable_Level"),
+                   converged=status.converged,
                    planner=_planner_smooth(prob, inv, w_, params, lam_),
                    regularizations=_regularizations(stats))
         stages.append(st)

@@ -21,19 +21,16 @@ import time
 
 import numpy as np
 
-from stlc.backends.base import Backend, Capabilities, SolverStatus
+from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
+from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.output.solution import Solution, Verdict
 from stlc.planning.bounds import stated_bounds
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
-_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
-                    ir.Until, ir.Release, ir.Next})
-_FUNCS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2",
-                    "angdiff"})
-_CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=_NODES, functions=_FUNCS,
-                     derived_signals=frozenset({"payload"}))
+_CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
+                     functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}))
 
 
 def is_team_mission(problem: PlanningProblem) -> bool:
@@ -148,13 +145,7 @@ class MilpSeed(Backend):
 class TeamRefine(Backend):
     name = "team refinement (casadi/ipopt, waypoints)"
     capabilities = _CAPS
-    STATUS_MAP = {"Solve_Succeeded": SolverStatus.OPTIMAL,
-                  "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
-                  "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
-                  "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
-                  "Restoration_Failed": SolverStatus.FAILED,
-                  "Maximum_CpuTime_Exceeded": SolverStatus.MAX_TIME,
-                  "User_Requested_Stop": SolverStatus.INTERRUPTED}
+    STATUS_MAP = IPOPT_STATUS_MAP
 
     def __init__(self, eta: float | None = None):
         self.eta = eta
