@@ -24,7 +24,7 @@ import numpy as np
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
 from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
-from stlc.output.solution import Solution, Verdict
+from stlc.output.solution import Comparison, Solution, Verdict
 from stlc.planning.bounds import stated_bounds
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
@@ -177,7 +177,7 @@ class TeamRefine(Backend):
         plan, stats, wall = raw
         code = str(stats.get("status", ""))
         status = self.status(code)
-        return Solution(
+        sol = Solution(
             mission=problem.mission.name, status=Verdict.VIOLATED,
             robustness_exact=float("nan"), robustness_smooth=float(stats.get("r", np.nan)),
             specs={}, energy=0.0, times=plan.times, channels=plan_channels(plan),
@@ -192,3 +192,11 @@ class TeamRefine(Backend):
                           "variables": int(stats.get("variables", 0)),
                           "constraints": int(stats.get("constraints", 0))},
             routes={d: list(r) for d, r in plan.route.items()}, visits=list(plan.visits))
+        standard = stats.get("standard")
+        if standard is not None and standard is not plan:
+            # the forward-speed stage started from the standard plan: a `compare` variant
+            # without that term (paper B Fig. 11) is that plan, not a second solve
+            for name, variant in problem.mission.options.get("compare", []):
+                if variant is not None and variant.forward_weight == 0:
+                    sol.comparisons.append(Comparison(name, plan_channels(standard)))
+        return sol

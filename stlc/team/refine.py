@@ -165,6 +165,7 @@ def refine(scenario: TeamScenario, seed: TeamPlan, *, lam: float = 10.0, kappa: 
 
     plan = generate(None, None)
     r_std = float(x[-1])
+    stats["standard"] = plan  # the plan without the forward-speed term (paper B Fig. 11)
     if eta > 0:
         vs = {d.name: feasible_forward_speed(v, d.vel_max)
               for d, v in zip(scenario.drones, _per_drone(v_star, scenario).values())}
