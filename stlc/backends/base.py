@@ -17,7 +17,7 @@ solver's own return codes to the shared ``SolverStatus`` through its ``STATUS_MA
 from __future__ import annotations
 
 import enum
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -95,28 +95,6 @@ class Backend:
         raise NotImplementedError
 
 
-def _walk_formula(f: ir.Formula) -> Iterable[ir.Formula]:
-    stack = [f]
-    while stack:
-        g = stack.pop()
-        yield g
-        stack.extend(ir.children(g))
-
-
-def _walk_expr(e: ir.Expr) -> Iterable[ir.Expr]:
-    stack = [e]
-    while stack:
-        x = stack.pop()
-        yield x
-        match x:
-            case ir.Bin(_, a, b):
-                stack += [a, b]
-            case ir.Neg(a):
-                stack.append(a)
-            case ir.Call(_, args):
-                stack.extend(args)
-
-
 def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
     """STL401 for every construct of the problem outside ``backend.capabilities``, at the
     construct's own span (the vehicle declaration, the formula node or the predicate)."""
@@ -136,14 +114,14 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
                               f"{len(problem.team)}", problem.mission.span))
     planned = {c for v in problem.vehicles() for c in vehicles.model_of(v).all_channels(v)}
     seen: set[tuple[str, int, int]] = set()
-    for g in _walk_formula(problem.requirement):
+    for g in ir.nodes(problem.requirement):
         if type(g) not in cap.nodes:
             out.append(Diagnostic("STL401", f"{who} does not support "
                                   f"`{type(g).__name__.lower()}`", g.span))
             continue
         if not isinstance(g, ir.Pred):
             continue
-        for e in _walk_expr(g.expr):
+        for e in ir.expr_nodes(g.expr):
             msg = None
             if isinstance(e, ir.Call) and e.fn not in cap.functions:
                 msg = f"{who} does not support the function `{e.fn}`"

@@ -12,20 +12,6 @@ from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
 
-def _calls(e: ir.Expr) -> set[str]:
-    out, stack = set(), [e]
-    while stack:
-        x = stack.pop()
-        if isinstance(x, ir.Call):
-            out.add(x.fn)
-            stack.extend(x.args)
-        elif isinstance(x, ir.Bin):
-            stack += [x.left, x.right]
-        elif isinstance(x, ir.Neg):
-            stack.append(x.arg)
-    return out
-
-
 def bound_kind(b: ir.Bound) -> str | None:
     """What a predicate's bound limits, for the report's plots: ``speed``, ``rotor_speed``,
     ``hover_speed`` (horizontal speed below which a vehicle counts as hovering),
@@ -37,7 +23,7 @@ def bound_kind(b: ir.Bound) -> str | None:
         return "rotor_speed"
     if field == "horizontal_speed" and b.side == "upper":
         return "hover_speed"
-    calls = b.calls | _calls(b.expr)
+    calls = b.calls | {x.fn for x in ir.expr_nodes(b.expr) if isinstance(x, ir.Call)}
     if "angdiff" in calls and b.side == "upper":
         return "heading_margin"
     if calls & {"dist", "norm"} and b.side == "lower":

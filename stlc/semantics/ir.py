@@ -22,6 +22,7 @@ Every backend (exact monitor, numpy smooth reference, CasADi NLP) interprets the
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from stlc.diagnostics import Span
@@ -311,10 +312,9 @@ def expr_leaves(e: Expr) -> set[Expr]:
     raise TypeError(f"not an expression node: {e!r}")
 
 
-def predicates(f: Formula) -> list[Pred]:
-    """Every predicate of ``f`` in depth-first order, each shared node visited once
-    (iterative: safe on chains of thousands of named specs, linear on DAGs)."""
-    out: list[Pred] = []
+def nodes(f: Formula) -> Iterator[Formula]:
+    """Every node of ``f`` in depth-first order, each shared node once (iterative: safe on
+    chains of thousands of named specs, linear on DAGs)."""
     seen: set[int] = set()
     stack = [f]
     while stack:
@@ -322,11 +322,28 @@ def predicates(f: Formula) -> list[Pred]:
         if id(g) in seen:
             continue
         seen.add(id(g))
-        if isinstance(g, Pred):
-            out.append(g)
-        else:
-            stack.extend(reversed(children(g)))
-    return out
+        yield g
+        stack.extend(reversed(children(g)))
+
+
+def predicates(f: Formula) -> list[Pred]:
+    """Every predicate of ``f`` in depth-first order, each shared node visited once."""
+    return [g for g in nodes(f) if isinstance(g, Pred)]
+
+
+def expr_nodes(e: Expr) -> Iterator[Expr]:
+    """Every subexpression of ``e`` (``e`` first), iteratively."""
+    stack = [e]
+    while stack:
+        x = stack.pop()
+        yield x
+        match x:
+            case Bin(_, a, b):
+                stack += [a, b]
+            case Neg(a):
+                stack.append(a)
+            case Call(_, args):
+                stack.extend(args)
 
 
 def signals(f: Formula) -> set[str]:

@@ -65,14 +65,6 @@ def state_matrix(v: model.Vehicle, channels: dict[str, np.ndarray]) -> np.ndarra
                      for c in model_of(v).state_channels(v)], axis=1)
 
 
-def is_multirotor(v: model.Vehicle) -> bool:
-    return isinstance(v, model.Multirotor)
-
-
-def is_point_mass(v: model.Vehicle) -> bool:
-    return isinstance(v, model.PointMass)
-
-
 from stlc.vehicles import multirotor as _mr  # noqa: E402
 from stlc.vehicles import point_mass as _pm  # noqa: E402
 
