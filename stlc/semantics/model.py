@@ -183,6 +183,38 @@ class ReplanConfig:
     waypoint_period: float = 1.0  # T_g, s
     compute_budget: float = 0.4  # t_c, s
     specs: tuple[str, ...] = ()  # named specs kept when replanning
+    takeover_delay: float = 10.0  # T_rep, s: a backup drone starts at t_fail + T_rep
+
+
+@dataclass(frozen=True, slots=True)
+class Disturbance:
+    """A push on a vehicle at ``time``: its position jumps by ``displacement`` (m) and its
+    velocity by ``velocity`` (m/s) (``stlc simulate``)."""
+
+    vehicle: str
+    time: float
+    displacement: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Failure:
+    """``vehicle`` fails at ``time``; the declared ``backup`` takes over its pending
+    targets from ``time + T_rep`` (paper B §IV-C)."""
+
+    vehicle: str
+    time: float
+    backup: str
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class SimulateConfig:
+    """A mission's ``simulate { ... }`` block: the events of ``stlc simulate``."""
+
+    disturbances: tuple[Disturbance, ...] = ()
+    failures: tuple[Failure, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -198,6 +230,7 @@ class Mission:
     smoothing: Smoothing = Smoothing()
     risk: RiskConfig | None = None
     replan: ReplanConfig | None = None
+    simulate: SimulateConfig | None = None
     options: dict[str, float | str] = field(default_factory=dict)
     span: Span = field(default=NO_SPAN, compare=False)
     spec_spans: dict[str, Span] = field(default_factory=dict, compare=False)
