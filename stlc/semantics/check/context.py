@@ -93,8 +93,11 @@ class Context(ABC):
     #: the built-in functions, by name (set by ``stlc.semantics.check.program``)
     functions: ClassVar[dict[str, Builtin]] = {}
 
-    def __init__(self, tree: ast.File):
+    def __init__(self, tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None):
         self.tree = tree
+        #: mission name → vehicles added to its team (``mission_for_team``: a backup drone
+        #: joins the executed team of a takeover)
+        self.extra_team = dict(extra_team or {})
         self.d = Collector()
         self.lines = source_lines(tree.source)
         self.file = tree.path

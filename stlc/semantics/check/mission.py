@@ -61,6 +61,7 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
             horizon = None
 
     vehicles = _team(ck, b, f)
+    vehicles += [v for v in ck.extra_team.get(name, ()) if v in ck.vehicles and v not in vehicles]
     scope.names["team"] = GroupV("vehicle", tuple(VehicleV(ck.vehicles[v]) for v in vehicles))
 
     # named specs, requirement

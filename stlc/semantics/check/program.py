@@ -25,9 +25,13 @@ from stlc.semantics.check.values import Sym
 TOP_KINDS = ("vehicle", "scenario", "mission", "spec", "const", "signal")
 
 
-def check(tree: ast.File) -> model.Program:
-    """Check a parsed file; raise ``StlcError`` with all diagnostics if anything is wrong."""
-    ck = Checker(tree)
+def check(tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None
+          ) -> model.Program:
+    """Check a parsed file; raise ``StlcError`` with all diagnostics if anything is wrong.
+
+    ``extra_team`` adds vehicles to a mission's team (mission name → vehicle names), so that
+    its quantifiers (``forall d in team``) range over them too (see ``mission_for_team``)."""
+    ck = Checker(tree, extra_team)
     try:
         return ck.run()
     except RecursionError:  # the elaborator guards each value; this is the last resort
