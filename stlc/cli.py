@@ -1,10 +1,11 @@
-"""Command line: ``stlc check | monitor | compile | risk | bench``.
+"""Command line: ``stlc check | monitor | compile | simulate | risk | bench``.
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
-written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan (report still
-written), 130 interrupted by Ctrl-C (nothing written, earlier outputs left as they were),
-141 the reader of stdout went away.  Bad input never shows a Python traceback; an internal
-error prints one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
+``simulate``'s executed trajectory did not keep its specs (report still written), 130
+interrupted by Ctrl-C (nothing written, earlier outputs left as they were), 141 the reader
+of stdout went away.  Bad input never shows a Python traceback; an internal error prints
+one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
 
 Every command runs in a worker thread with a large stack (``stlc.interrupt.run``): deep
 formulas recurse safely and Ctrl-C stops a running solve at once.
@@ -46,6 +47,20 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
 
+    s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
+                       "failure, with online replanning")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--mission", metavar="NAME", default=None)
+    s.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    s.add_argument("--disturb", metavar="[DRONE@]T:DX,DY,DZ", action="append", default=[],
+                   type=_disturbance, help="push the vehicle by (DX, DY, DZ) m at T s "
+                   "(repeatable; replaces the file's simulate block)")
+    s.add_argument("--fail", metavar="DRONE@T", type=_failure, default=None,
+                   help="DRONE fails at T s (needs --backup)")
+    s.add_argument("--backup", metavar="DRONE", default=None,
+                   help="the declared drone that takes over after --fail")
+
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
     r.add_argument("--trajectory", required=True, metavar="CSV")
@@ -57,12 +72,46 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _number(text: str, what: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{what} {text!r} is not a number") from None
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"{what} {text!r} is not finite")
+    return x
+
+
+def _disturbance(text: str):
+    """``[DRONE@]T:DX,DY,DZ`` → ``model.Disturbance`` (vehicle "" = the mission's only one)."""
+    from stlc.semantics.model import Disturbance
+
+    drone, _, rest = text.rpartition("@")
+    t, sep, vec = rest.partition(":")
+    parts = vec.split(",")
+    if not sep or len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected [DRONE@]T:DX,DY,DZ, "
+                                         "e.g. 6:1.1,0,0 (seconds, metres)")
+    d = tuple(_number(x, "displacement") for x in parts)
+    return Disturbance(drone, _number(t, "time"), d)  # type: ignore[arg-type]
+
+
+def _failure(text: str) -> tuple[str, float]:
+    drone, sep, t = text.partition("@")
+    if not sep or not drone:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected DRONE@T, e.g. uav1@60")
+    return drone, _number(t, "time")
+
+
 def main(argv: list[str] | None = None) -> int:
     from stlc import interrupt
 
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.cmd == "simulate" and (args.fail is None) != (args.backup is None):
+        parser.error("--fail and --backup go together")
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
-           "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
+           "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
     try:
         # a big-stack worker thread: deep formulas recurse safely, Ctrl-C stops at once
         return interrupt.run(lambda: cmd(args))
@@ -151,6 +200,15 @@ def cmd_compile(args) -> int:
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
                         risk=not args.no_risk)
+
+
+def cmd_simulate(args) -> int:
+    from stlc.pipeline import simulate_file
+    from stlc.semantics.model import Failure
+
+    fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None
+    return simulate_file(args.file, out=args.out, mission=args.mission,
+                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet)
 
 
 def cmd_risk(args) -> int:

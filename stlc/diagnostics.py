@@ -56,6 +56,7 @@ CODES: dict[str, str] = {
     "STL107": "unknown function",
     "STL108": "wrong kind of declaration here",
     "STL109": "no mission or spec to work on",
+    "STL110": "unusable backup drone (already in the team, or no payload capacity)",
     # types and units
     "STL201": "expected a formula, found a number",
     "STL202": "expected a number, found a formula",
@@ -74,6 +75,7 @@ CODES: dict[str, str] = {
     "STL303": "interval not aligned to the mission step",
     "STL304": "formula reaches beyond the mission horizon",
     "STL305": "invalid horizon or step",
+    "STL306": "simulation event outside the mission horizon",
     # backend applicability
     "STL401": "the backend does not support this construct",
     "STL402": "vehicle start state violates its bounds",

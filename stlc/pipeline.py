@@ -12,7 +12,7 @@ import json
 import os
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -242,3 +242,108 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
         print(f"note: the trajectory's step is {trace.dt:g} s, the mission's {m.step:g} s; "
               "windows were taken at the trajectory's step", file=sys.stderr)
     return 0
+
+
+# ---------------------------------------------------------------- simulation (replanning)
+
+
+def simulation_events(path: str, program: model.Program, m: model.Mission,
+                      disturbances: list | None, failures: list | None) -> tuple[list, list]:
+    """The events of ``stlc simulate``: those given on the command line (``--disturb``,
+    ``--fail``) replace the file's ``simulate`` block; each is checked like the file's
+    (reported at the mission's name, exit 1)."""
+    from stlc.semantics.check.events import event_problems
+
+    span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
+    cli = disturbances or failures
+    dist = list(disturbances or []) if cli else list(m.simulate.disturbances if m.simulate else ())
+    fails = list(failures or []) if cli else list(m.simulate.failures if m.simulate else ())
+    diags = []
+    if cli:
+        only = m.vehicles[0] if len(m.vehicles) == 1 else None
+        dist = [replace(d, vehicle=d.vehicle or only or "") for d in dist]
+        delay = (m.replan or model.ReplanConfig()).takeover_delay
+        for ev in [*dist, *fails]:
+            for code, msg, hint in event_problems(program.vehicles, m.vehicles, m.horizon,
+                                                  ev, delay):
+                diags.append(Diagnostic(code, f"command line: {msg}", span, hint))
+    if not dist and not fails:
+        diags.append(Diagnostic("STL104", f"nothing to simulate for mission `{m.name}`", span,
+                                "add `simulate { disturb uav1 { time = 6 s; displacement = "
+                                "(1, 0, 0) m } }` to the mission, or pass --disturb/--fail"))
+    elif dist and fails:
+        diags.append(Diagnostic("STL401", "a simulation has disturbances or a failure, not "
+                                "both", span, "simulate them one at a time"))
+    elif fails and not _reads_payload(m):
+        diags.append(Diagnostic("STL401", f"a backup-drone takeover needs a team mission "
+                                f"with payloads (paper B); `{m.name}` has none", span,
+                                "simulate disturbances on this mission instead"))
+    elif dist and _reads_payload(m):
+        diags.append(Diagnostic("STL401", "disturbance replanning plans one vehicle with "
+                                "its full dynamics; a team mission replans with a backup "
+                                "drone", span, "simulate a failure: --fail DRONE@T --backup "
+                                "DRONE"))
+    elif len(fails) > 1:
+        diags.append(Diagnostic("STL401", "one drone failure per simulation", span,
+                                "simulate the failures one at a time"))
+    if diags:
+        raise StlcError(diags)
+    return dist, fails
+
+
+def _reads_payload(m: model.Mission) -> bool:
+    return any(s.endswith(".payload") for s in ir.signals(m.requirement))
+
+
+def simulate_file(path: str, out: str | None = None, mission: str | None = None,
+                  disturbances: list | None = None, failures: list | None = None,
+                  quiet: bool = False) -> int:
+    """``stlc simulate``: compile the mission, fly it through its events (disturbances with
+    event-triggered replanning, or a drone failure with a backup's takeover), verify the
+    executed trajectory and write the compile outputs plus ``replan.json`` and
+    ``executed.csv``.  Exit 0 when every triggered replan was accepted and the executed
+    trajectory satisfies the kept specs, 3 otherwise."""
+    from stlc.output import compile as outputs
+    from stlc.output.directory import preflight
+    from stlc.output.simulate import simulation_summary, write_simulation
+
+    t0 = time.perf_counter()
+    loaded = load(path)
+    program = loaded.program
+    missions = select_missions(path, program, mission)
+    if len(missions) > 1:
+        raise StlcError([Diagnostic("STL104", f"{path} has {len(missions)} missions: say "
+                                    "which to simulate", Span(path, 1, 1, 1, 2),
+                                    "pass --mission " + " | ".join(x.name for x in missions))])
+    m = missions[0]
+    dist, fails = simulation_events(path, program, m, disturbances, failures)
+    outdir = out if out is not None else os.path.join("reports", m.name)
+    preflight(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2))
+    problem, sol = plan(program, m, quiet=quiet)
+    sol.timing.update(loaded.timing)
+    cfg = m.replan or model.ReplanConfig()
+    t1 = time.perf_counter()
+    try:
+        if fails:
+            from stlc.replan.takeover import simulate_failure
+
+            sim = simulate_failure(problem, sol, fails[0], cfg)
+        else:
+            from stlc.replan.disturb import simulate_disturbances
+
+            sim = simulate_disturbances(problem, sol, dist, cfg)
+    except ValueError as e:  # the replanning modules' input errors (ReplanInputError)
+        if type(e).__name__ == "ValueError":
+            raise
+        raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}", m.span,
+                                    "see `stlc simulate` in the README")]) from None
+    # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
+    # whole mission, judged over the executed team
+    sim.kept = ("mission",) if fails else (tuple(cfg.specs) or ("mission",))
+    sol.timing["simulate_s"] = time.perf_counter() - t1
+    sol.timing["total_s"] = time.perf_counter() - t0
+    write_simulation(outdir, program, m, sol, sim)
+    ok = simulation_summary(sim, outdir, quiet)
+    if not quiet:
+        print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return outputs.EXIT_OK if ok else outputs.EXIT_UNSAT

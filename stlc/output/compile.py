@@ -25,10 +25,19 @@ EXIT_OK, EXIT_UNSAT = 0, 3
 def write_outputs(outdir: str, program: model.Program, mission: model.Mission, sol: Solution
                   ) -> None:
     """Write every output of one mission into ``outdir`` (see ``stlc.output.directory``)."""
+    write_files(outdir, program, mission, sol)
+
+
+def write_files(outdir: str, program: model.Program, mission: model.Mission, sol: Solution,
+                extra=None, simulation=None) -> None:
+    """The compile outputs of ``sol``, plus what ``extra(stage_dir)`` writes, as one set;
+    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section."""
     from stlc.output.directory import staged
     from stlc.output.report import write_report
 
     with staged(outdir, mission.span) as tmp:
+        if extra is not None:
+            extra(tmp)
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
             fh.write(sol.to_json())
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
@@ -49,7 +58,8 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
                 from stlc.analysis.risk import save_samples
 
                 save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
-        write_report(os.path.join(tmp, "report.html"), program, mission, sol)
+        write_report(os.path.join(tmp, "report.html"), program, mission, sol,
+                     simulation=simulation)
 
 
 def summary(sol: Solution, outdir: str) -> None:

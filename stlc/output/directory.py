@@ -1,9 +1,11 @@
-"""The output directory of ``stlc compile`` / ``stlc risk``: what stlc may write there, and how.
+"""The output directory of ``stlc compile`` / ``simulate`` / ``risk``: what stlc may write
+there, and how.
 
 Contract (README, "Output directory"):
 
 * stlc writes only the files it owns (``OWNED``: solution.json, trajectory.csv, report.html,
-  risk.json, risk_samples.npz, and a team plan's trajectory.<drone>.csv) into DIR and
+  risk.json, risk_samples.npz, ``stlc simulate``'s replan.json and executed.csv, and a team
+  plan's trajectory.<drone>.csv) into DIR and
   never removes anything else; ``-o .`` is safe.
 * Each run writes its files into a private staging directory inside DIR
   (``.stlc-stage-XXXXXX``), then, holding an exclusive ``flock`` on DIR itself, moves them
@@ -31,7 +33,8 @@ from stlc.diagnostics import Diagnostic, Span, StlcError
 
 #: every file name stlc may create, replace or remove in an output directory, plus the
 #: per-drone trajectories of a team plan, ``trajectory.<drone>.csv``
-OWNED = ("solution.json", "trajectory.csv", "report.html", "risk.json", "risk_samples.npz")
+OWNED = ("solution.json", "trajectory.csv", "report.html", "risk.json", "risk_samples.npz",
+         "replan.json", "executed.csv")
 _PER_DRONE = re.compile(r"trajectory\.[A-Za-z_][A-Za-z0-9_]*\.csv")
 
 

@@ -69,6 +69,17 @@ class SimulationResult:
     disturbances: list = field(default_factory=list)  # model.Disturbance applied
     failures: list = field(default_factory=list)  # model.Failure applied
     notes: list[str] = field(default_factory=list)
+    #: the names in ``executed_robustness`` the simulation must keep (set by the pipeline:
+    #: the replan block's ``keep``, or ``mission`` for a takeover)
+    kept: tuple[str, ...] = ()
+
+    def ok(self) -> bool:
+        """Every triggered replan was flown and the executed trajectory keeps the kept specs
+        (robustness ≥ κ)."""
+        if any(e.triggered and not e.accepted for e in self.events):
+            return False
+        return all(self.executed_robustness.get(k, float("nan")) >= self.threshold
+                   for k in self.kept)
 
     @property
     def triggered(self) -> list[ReplanEvent]:
@@ -83,7 +94,9 @@ class SimulationResult:
             "replans": {"count": len(solves),
                         "median_s": json_number(float(np.median(solves))) if solves else None,
                         "max_s": json_number(max(solves)) if solves else None},
+            "ok": self.ok(),
             "executed": {
+                "kept": list(self.kept),
                 "threshold": json_number(self.threshold),
                 "robustness": {k: json_number(v) for k, v in self.executed_robustness.items()},
                 "satisfied": {k: (None if v != v else bool(v >= self.threshold))

@@ -31,6 +31,7 @@ from stlc.vehicles import model_of
 
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
 from .predicates import predicate_line, readable
+from .replan_view import replan
 from .risk_view import risk
 from .scene import scene
 from .signals import signals, spec_formulas, windows
@@ -306,11 +307,13 @@ def _source(program: Program, mission: Mission, sol: Solution, rows: list[dict])
 
 
 def build_view(program: Program, mission: Mission, solution: Solution,
-               risk_samples: Mapping[str, np.ndarray] | None = None) -> dict:
+               risk_samples: Mapping[str, np.ndarray] | None = None,
+               simulation=None) -> dict:
     """Everything the report shows, as plain JSON-serialisable data.
 
     ``risk_samples``: the per-realisation arrays of ``risk_samples.npz`` (keys
-    ``<case>/exact/requirement``, …), for the risk histograms.
+    ``<case>/exact/requirement``, …), for the risk histograms.  ``simulation``: the
+    ``stlc.replan.result.SimulationResult`` of ``stlc simulate``, for its section.
     """
     wins = windows(mission, solution, spec_formulas(program, mission, solution))
     rows = _spec_rows(program, mission, solution, wins)
@@ -330,6 +333,7 @@ def build_view(program: Program, mission: Mission, solution: Solution,
         "signals": signals(program, mission, solution, wins, rows, markers),
         "energy": en,
         "team": team(program, mission, solution),
+        "replan": replan(program, mission, solution, simulation),
         "risk": risk(solution.risk, mission, len(program.source.splitlines()),
                      risk_samples),
         "source": _source(program, mission, solution, rows),

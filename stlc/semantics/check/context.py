@@ -27,7 +27,8 @@ from stlc.semantics.check import units
 from stlc.semantics.check.values import ERROR, ErrorV, Form, Num, RegionV, Sym, Value, kind_name
 from stlc.semantics.timegrid import is_aligned
 
-SINGLE_BLOCKS = ("start", "risk", "replan")  # sub-blocks that a block holds at most once
+#: sub-blocks that a block holds at most once
+SINGLE_BLOCKS = ("start", "risk", "replan", "simulate")
 
 #: a built-in function: (context, call node, scope) → checked value
 Builtin = Callable[["Context", ast.Call, "Scope"], Value]

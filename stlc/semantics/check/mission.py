@@ -22,7 +22,7 @@ MISSION_FIELDS = {
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
 }
-MISSION_BLOCKS = ("risk", "replan", "compare")
+MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
 MAX_COUNT = 10**9  # sample counts, iteration limits
 MAX_SEED = 2**63 - 1
@@ -369,11 +369,17 @@ def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None
     if not blocks:
         return None
     f = ck.fields(blocks[0], {"threshold": False, "event_period": False,
-                              "waypoint_period": False, "budget": False, "keep": False})
+                              "waypoint_period": False, "budget": False, "keep": False,
+                              "takeover_delay": False})
     thr = ck.num(f, "threshold", units.LENGTH, 1.0, positive=True)
     te = ck.num(f, "event_period", units.TIME, 0.5, positive=True)
     tg = ck.num(f, "waypoint_period", units.TIME, 1.0, positive=True)
     tc = ck.num(f, "budget", units.TIME, 0.4, positive=True)
+    trep = ck.num(f, "takeover_delay", units.TIME, 10.0)
+    if trep is not None and trep < 0:
+        ck.d.error("STL207", "`takeover_delay` must not be negative",
+                   f["takeover_delay"].value.span)
+        trep = None
     keep: list[str] = []
     if "keep" in f:
         node = f["keep"].value
@@ -384,8 +390,8 @@ def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None
                            did_you_mean(txt, specs))
             else:
                 keep.append(txt)
-    if None in (thr, te, tg, tc):
+    if None in (thr, te, tg, tc, trep):
         return None
-    return model.ReplanConfig(thr, te, tg, tc, tuple(keep))  # type: ignore[arg-type]
+    return model.ReplanConfig(thr, te, tg, tc, tuple(keep), trep)  # type: ignore[arg-type]
 
 

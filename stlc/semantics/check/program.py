@@ -13,11 +13,14 @@ in order.  The modules it uses import only ``context`` (and lower layers), never
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from stlc.diagnostics import StlcError
 from stlc.frontend import ast
 from stlc.semantics import ir, model
 from stlc.semantics.check import builtins, declarations
 from stlc.semantics.check.elaborate import ExpressionElaborator
+from stlc.semantics.check.events import check_simulate
 from stlc.semantics.check.formulas import FormulaElaborator
 from stlc.semantics.check.mission import check_mission
 from stlc.semantics.check.values import Sym
@@ -75,6 +78,10 @@ class Checker(ExpressionElaborator, FormulaElaborator):
             if isinstance(m, ast.Block) and m.kind == "mission":
                 mis = check_mission(self, m, specs)
                 if mis is not None:
+                    if mis.name not in self.extra_team:  # (a re-check skips the events)
+                        delay = (mis.replan or model.ReplanConfig()).takeover_delay
+                        mis = replace(mis, simulate=check_simulate(self, m, mis.vehicles,
+                                                                   mis.horizon, delay))
                     missions[mis.name] = mis
             elif isinstance(m, ast.Block) and m.kind not in ("vehicle", "scenario"):
                 self.bad_kind(m.kind, m.span, TOP_KINDS, "at the top level")

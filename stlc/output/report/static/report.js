@@ -375,6 +375,67 @@
       yaxis2: { overlaying: "y", range: [0, 1], visible: false, fixedrange: true } }));
   }
 
+  /* ------------------------------------------------------------------ replanning */
+  function replanPlots(rp, sc) {
+    var t3 = [], tt = [];
+    sc.boxes.forEach(function (b) {
+      if (!b.visible) return;
+      t3.push(edgeTrace(b));
+      tt.push({ type: "scatter", mode: "lines", x: b.hull_xy.map(function (p) { return p[0]; }),
+                y: b.hull_xy.map(function (p) { return p[1]; }), name: txt(b.name), showlegend: false,
+                line: { color: b.color, width: 1 }, hoverinfo: "skip" });
+    });
+    rp.paths.forEach(function (p) {
+      [["nominal", rp.colors.nominal, "dash", 3], ["executed", p.color, "solid", 5]].forEach(function (k) {
+        var xyz = p[k[0]];
+        if (!xyz) return;
+        var name = txt(p.vehicle) + " " + k[0];
+        t3.push({ type: "scatter3d", mode: "lines", x: xyz[0], y: xyz[1], z: xyz[2], name: name,
+                  line: { color: k[1], width: k[3], dash: k[2] } });
+        tt.push({ type: "scatter", mode: "lines", x: xyz[0], y: xyz[1], name: name, showlegend: false,
+                  line: { color: k[1], width: k[3] - 2, dash: k[2] } });
+      });
+    });
+    rp.segments.forEach(function (g, i) {
+      t3.push({ type: "scatter3d", mode: "lines", x: g.x, y: g.y, z: g.z, name: txt(g.label),
+                legendgroup: "seg", showlegend: i === 0, line: { color: rp.colors.replanned, width: 8 } });
+      tt.push({ type: "scatter", mode: "lines", x: g.x, y: g.y, name: txt(g.label), showlegend: false,
+                line: { color: rp.colors.replanned, width: 4 } });
+    });
+    if (rp.markers.length) {
+      var mk = rp.markers, lab = mk.map(function (m) { return txt(m.label); });
+      t3.push({ type: "scatter3d", mode: "markers", name: rp.kind === "failure" ? "failure" : "replan triggered",
+                x: mk.map(function (m) { return m.x; }), y: mk.map(function (m) { return m.y; }),
+                z: mk.map(function (m) { return m.z; }), text: lab, hovertemplate: "%{text}<extra></extra>",
+                marker: { size: 6, color: rp.colors.trigger, symbol: "x" } });
+      tt.push({ type: "scatter", mode: "markers", showlegend: false, text: lab,
+                x: mk.map(function (m) { return m.x; }), y: mk.map(function (m) { return m.y; }),
+                hovertemplate: "%{text}<extra></extra>",
+                marker: { size: 10, color: rp.colors.trigger, symbol: "x" } });
+    }
+    draw("replan-3d", t3, baseLayout({ title: title("Nominal, executed and replanned paths"), hovermode: "closest",
+      margin: { l: 0, r: 0, t: 32, b: 48 },
+      scene: { aspectmode: "data", xaxis: { title: { text: "x (m)" } }, yaxis: { title: { text: "y (m)" } },
+               zaxis: { title: { text: "z (m)" } } } }));
+    draw("replan-top", tt, baseLayout({ title: title("Top view"), hovermode: "closest",
+      xaxis: { title: { text: "x (m)" }, gridcolor: GRID },
+      yaxis: { title: { text: "y (m)" }, gridcolor: GRID, scaleanchor: "x" } }));
+    if (rp.deviation) {
+      var dv = rp.deviation, td = [];
+      dv.series.forEach(function (s) {
+        td.push({ type: "scatter", mode: "lines", x: dv.t, y: s.d, name: txt(s.vehicle) + " deviation",
+                  line: { color: s.color, width: 2 } });
+      });
+      td.push({ type: "scatter", mode: "lines", x: [dv.t[0], tEnd(dv.t)], y: [dv.zeta, dv.zeta],
+                name: "ζ", line: { color: LIMIT, dash: "dash", width: 1.5 } });
+      draw("replan-deviation", td, baseLayout({ title: title("Deviation from the nominal plan ‖p̃ − p*‖"),
+        xaxis: timeAxis({ title: { text: "t" } }), yaxis: { title: { text: "m" }, gridcolor: GRID },
+        shapes: dv.events.map(function (t) {
+          return { type: "line", x0: t, x1: t, yref: "paper", y0: 0, y1: 1,
+                   line: { color: rp.colors.trigger, width: 1, dash: "dot" } }; }) }));
+    }
+  }
+
   if (typeof Plotly === "undefined") {
     console.error("plotly.js is missing from the report");
     return;
@@ -387,6 +448,7 @@
     gantt(data.team);
     if (data.team.forward) forwardPlot(data.team.forward);
   }
+  if (data.replan) replanPlots(data.replan, data.scene);
   if (data.energy.profiles.length) energyPlot(data.energy);
   if (data.risk) data.risk.cases.forEach(function (c) { if (c.histogram) riskPlot(c); });
 })();

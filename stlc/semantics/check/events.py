@@ -1,0 +1,117 @@
+"""Checking a mission's ``simulate { ... }`` block: the events of ``stlc simulate``.
+
+    simulate {
+      disturb uav1 { time = 6 s; displacement = (1.1, 0, 0) m }     # a push (and/or
+      disturb uav1 { time = 11 s; velocity = (0, 0.8, 0) m/s }      # a velocity kick)
+      fail uav1 { time = 60 s; backup = uav3 }                      # paper B §IV-C
+    }
+
+``event_problems`` holds the rules shared with events given on the command line
+(``--disturb``, ``--fail``/``--backup``), which the pipeline reports at the mission's name.
+Part of the checker (``stlc.semantics.check``); imports only ``context`` and lower layers.
+"""
+
+from __future__ import annotations
+
+from stlc.diagnostics import did_you_mean
+from stlc.frontend import ast
+from stlc.semantics import model
+from stlc.semantics.check import units
+from stlc.semantics.check.context import Context
+
+EVENT_KINDS = ("disturb", "fail")
+
+
+def event_problems(vehicles: dict[str, model.Vehicle], mission_vehicles: tuple[str, ...],
+                   horizon: float, ev: model.Disturbance | model.Failure,
+                   takeover_delay: float = 10.0) -> list[tuple[str, str, str | None]]:
+    """What is wrong with one event, as (code, message, hint); empty when it is usable."""
+    out: list[tuple[str, str, str | None]] = []
+    if ev.vehicle not in mission_vehicles:
+        hint = did_you_mean(ev.vehicle, mission_vehicles) or \
+            "the mission's vehicles: " + ", ".join(mission_vehicles)
+        what = "declared but not" if ev.vehicle in vehicles else "not"
+        out.append(("STL101", f"vehicle `{ev.vehicle}` is {what} part of the mission", hint))
+    if not 0.0 <= ev.time < horizon:
+        out.append(("STL306", f"event at {ev.time:g} s is outside the mission horizon "
+                    f"[0, {horizon:g}) s", f"give a time between 0 and {horizon:g} s"))
+    if isinstance(ev, model.Failure):
+        b = vehicles.get(ev.backup)
+        if b is None:
+            out.append(("STL101", f"unknown backup vehicle `{ev.backup}`",
+                        did_you_mean(ev.backup, vehicles) or
+                        "declare it with `vehicle NAME : point_mass { capacity = ... }`"))
+        elif ev.backup in mission_vehicles:
+            out.append(("STL110", f"backup `{ev.backup}` is already in the mission's team",
+                        "declare a drone that is not in `vehicles = [...]`"))
+        elif not getattr(b, "capacity", None):
+            out.append(("STL110", f"backup `{ev.backup}` carries no payload (no `capacity`)",
+                        f"give `{ev.backup}` a `capacity = N` of at least 1"))
+        if 0.0 <= ev.time < horizon and ev.time + takeover_delay >= horizon:
+            out.append(("STL306", f"the backup would start at {ev.time + takeover_delay:g} s "
+                        f"(failure + T_rep {takeover_delay:g} s), at or after the horizon "
+                        f"{horizon:g} s", "fail earlier or shorten `takeover_delay`"))
+    return out
+
+
+def check_simulate(ck: Context, b: ast.Block, vehicles: tuple[str, ...],
+                   horizon: float | None, takeover_delay: float) -> model.SimulateConfig | None:
+    """The mission's ``simulate`` block, or None when it has none."""
+    blocks = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "simulate"]
+    if not blocks:
+        return None
+    sb = blocks[0]
+    dist: list[model.Disturbance] = []
+    fails: list[model.Failure] = []
+    for m in sb.members:
+        if not isinstance(m, ast.Block):
+            ck.d.error("STL108", "a `simulate` block holds only `disturb` and `fail` blocks",
+                       m.span, "write `disturb uav1 { time = 6 s; displacement = (1, 0, 0) m }`"
+                       " or `fail uav1 { time = 60 s; backup = uav3 }`")
+            continue
+        if m.kind not in EVENT_KINDS:
+            ck.bad_kind(m.kind, m.span, EVENT_KINDS, "in `simulate`")
+            continue
+        if not m.name:
+            ck.d.error("STL104", f"`{m.kind}` needs the vehicle it applies to", m.span,
+                       f"write `{m.kind} uav1 {{ time = ... }}`")
+            continue
+        ev = _disturb(ck, m) if m.kind == "disturb" else _fail(ck, m)
+        if ev is None:
+            continue
+        if horizon is not None:
+            for code, msg, hint in event_problems(ck.vehicles, vehicles, horizon, ev,
+                                                  takeover_delay):
+                span = m.name_span if "vehicle" in msg and "backup" not in msg else m.span
+                ck.d.error(code, msg, span, hint)
+        (dist if m.kind == "disturb" else fails).append(ev)  # type: ignore[arg-type]
+    if len({f.vehicle for f in fails}) < len(fails):
+        ck.d.error("STL102", "a vehicle fails once", sb.span)
+    return model.SimulateConfig(tuple(dist), tuple(fails))
+
+
+def _disturb(ck: Context, m: ast.Block) -> model.Disturbance | None:
+    f = ck.fields(m, {"time": True, "displacement": False, "velocity": False})
+    t = ck.num(f, "time", units.TIME)
+    dp = ck.vec(f, "displacement", 3, units.LENGTH, (0.0, 0.0, 0.0))
+    dv = ck.vec(f, "velocity", 3, units.SPEED, (0.0, 0.0, 0.0))
+    if "displacement" not in f and "velocity" not in f:
+        ck.d.error("STL104", "a disturbance needs a `displacement` or a `velocity`", m.span,
+                   "add `displacement = (1, 0, 0) m` or `velocity = (0, 1, 0) m/s`")
+        return None
+    if None in (t, dp, dv):
+        return None
+    return model.Disturbance(m.name, t, dp, dv, m.span)  # type: ignore[arg-type]
+
+
+def _fail(ck: Context, m: ast.Block) -> model.Failure | None:
+    f = ck.fields(m, {"time": True, "backup": True})
+    t = ck.num(f, "time", units.TIME)
+    node = f["backup"].value if "backup" in f else None
+    if node is not None and not (isinstance(node, ast.Path) and len(node.parts) == 1):
+        ck.d.error("STL101", "`backup` names a declared vehicle", node.span,
+                   "write `backup = uav3`")
+        return None
+    if t is None or node is None:
+        return None
+    return model.Failure(m.name, t, node.parts[0], m.span)  # type: ignore[union-attr]
