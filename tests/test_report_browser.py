@@ -154,8 +154,10 @@ def assert_page_sound(page) -> None:
         assert is_plot and n_svg >= 1, f"plot {pid} was not rendered"
     dup = page.evaluate("""() => {
       const seen = new Set(), dup = [];
-      document.querySelectorAll('[id]').forEach(el => seen.has(el.id) ? dup.push(el.id)
-                                                                      : seen.add(el.id));
+      // ids that plotly gives the inside of each 3-D figure (`scene`) are its own
+      document.querySelectorAll('[id]').forEach(el => {
+        if (el.parentElement && el.parentElement.closest('.js-plotly-plot')) return;
+        seen.has(el.id) ? dup.push(el.id) : seen.add(el.id); });
       return dup; }""")
     assert dup == [], f"duplicate element ids: {dup}"
     assert page.evaluate("() => window.__pwned") is None, "mission text ran as script"
@@ -320,6 +322,52 @@ def test_real_team_mission_renders_in_chromium(browser, tmp_path):
         assert "uav1" in team and "uav2" in team and "MILP only" in team
         assert page.locator("#team .js-plotly-plot").count() >= 2  # Gantt + forward speed
         screenshot(page, "report_real_team_mission.png")
+    finally:
+        page.close()
+    assert outside == [] and errors == [], (outside, errors)
+
+
+def synthetic_simulation(sol):
+    """A hand-made simulation of the synthetic plan: a push at 0.5 s that triggers a replan,
+    one event instant below ζ, the executed path offset until the segment rejoins."""
+    from stlc.replan.result import ReplanEvent, SimulationResult
+
+    t = sol.times
+    nominal = {k: v for k, v in sol.channels.items()}
+    executed = {k: np.array(v, float) for k, v in nominal.items()}
+    executed["uav1.pos.y"] = executed["uav1.pos.y"] + np.where((t >= 0.5) & (t < 1.5), 1.2, 0)
+    seg_t = t[(t >= 0.9) & (t <= 1.5)]
+    seg = {f"uav1.pos.{a}": np.interp(seg_t, t, executed[f"uav1.pos.{a}"]) for a in "xyz"}
+    events = [ReplanEvent(0.0, "uav1", 0.0, False),
+              ReplanEvent(0.5, "uav1", 1.2, True, solve_s=0.12, status="optimal",
+                          within_budget=True, accepted=True, segment=(0.9, 1.5),
+                          kept={"safe <script>": 0.2}, times=seg_t, channels=seg),
+              ReplanEvent(1.0, "uav1", 0.3, False)]
+    from stlc.semantics.model import Disturbance
+
+    return SimulationResult("demo", t, nominal, executed, events, 0.4,
+                            {"mission": 0.04, "safe": 0.2}, 0.01,
+                            [Disturbance("uav1", 0.5, (0.0, 1.2, 0.0))], kept=("safe",))
+
+
+def test_simulation_section_renders_in_chromium(browser, tmp_path):
+    program, mission, sol = synthetic_case()
+    sim = synthetic_simulation(sol)
+    path = tmp_path / "report.html"
+    write_report(path, program, mission, sol, simulation=sim)
+    page, errors, outside = open_report(browser, path)
+    try:
+        assert_page_sound(page)
+        ids = page.eval_on_selector_all("[data-plot]", "els => els.map(el => el.id)")
+        assert {"replan-3d", "replan-top", "replan-deviation"} <= set(ids)
+        text = page.inner_text("#replan")
+        assert "0.12" in text and "optimal" in text and "safe <script>" in text
+        # the deviation plot shows the executed offset (1.2 m) against ζ = 1 m
+        data = report_data(page)["replan"]
+        assert max(data["deviation"]["series"][0]["d"]) == pytest.approx(1.2)
+        assert data["deviation"]["zeta"] == 1.0 and data["deviation"]["events"] == [0.5]
+        assert page.locator("#replan-top .scatterlayer .trace").count() >= 4
+        screenshot(page, "report_replan.png")
     finally:
         page.close()
     assert outside == [] and errors == [], (outside, errors)
