@@ -117,7 +117,8 @@ def _team_comparisons(sols: list) -> None:
     final.solver["seed"] = dict(seed.solver)
     if seed.solver.get("assignment") == "greedy":
         final.notes.append("the task-assignment MILP stopped on its time budget (not "
-                           "converged): the routes are the greedy assignment, not optimal")
+                           "converged): the routes come from the heuristic (greedy start + "
+                           "local search, own station per drone), not optimal")
 
 
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
