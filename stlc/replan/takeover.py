@@ -40,7 +40,7 @@ Semantics (the decisions the paper leaves open):
   executed trajectory. ``within_budget`` compares the replan time with the 2 s goal
   (``GOAL_S``, paper B: "approximately 2 s").
 * **Nothing pending** (the failed drone had finished its installs) is no error: the event is
-  not triggered and the backup stays at its start.
+  not triggered, the backup is not sent and the executed team is the mission's own.
 
 Bad inputs raise ``TakeoverError`` (a ``ValueError``) naming the culprit in ``subject``.
 """
@@ -148,6 +148,46 @@ def parking_station(sc: TeamScenario, home: str | None, others: dict[str, np.nda
     return best, best_c
 
 
+def retire(problem, plan, failure: model.Failure, backup_start) -> dict:
+    """The team's kinematic channels with the failed drone parked from the sample after
+    t_fail, where it is parked, and its pending and installed targets (module docstring)."""
+    from stlc.backends.team_backend import team_scenario
+    from stlc.planning.verify import recompute_derived
+
+    f, dt = failure.vehicle, problem.grid.dt
+    n = len(plan.times)
+    base = team_scenario(problem)
+    k_f = min(n - 1, int(math.floor(failure.time / dt + 1e-9)))
+    raw: dict[str, np.ndarray] = {}
+    for d in problem.team:
+        raw.update(_kin(plan.channels, d))
+    others = {d: _pos(plan.channels, d) for d in problem.team if d != f}
+    stations = {s.name: s for s in base.stations}
+    home = next((r for r in reversed(plan.routes.get(f, [])) if r in stations), None)
+    park, clear = parking_station(base, home, others, k_f + 1, backup_start)
+    if park is None:
+        raise TakeoverError(f"mission `{problem.mission.name}` has no refilling station to "
+                            f"park the failed `{f}` in", f)
+    _set(raw, f, slice(k_f + 1, None), centre(stations[park]))
+    _, events = recompute_derived(problem, raw)
+    installed = {e.region for e in events if e.kind == "install"}
+    targets = failed_targets(plan, f, {t.name for t in base.targets})
+    return {"base": base, "raw": raw, "others": others, "park": park, "clearance": clear,
+            "k_f": k_f, "pending": [t for t in targets if t not in installed],
+            "installed": [t for t in targets if t in installed]}
+
+
+def free_stations(sc: TeamScenario, exclude: str, fixed: list[Fixed]) -> list[str]:
+    """Stations the backup may refill and end in: not the parking one, and none that a
+    fixed drone comes within Γ_dis + PARK_MARGIN of (its centre) on the segment; all but
+    the parking one when no station is free."""
+    rest = [s for s in sc.stations if s.name != exclude]
+    free = [s.name for s in rest
+            if all(float(np.min(np.linalg.norm(fx.pos - centre(s), axis=1)))
+                   >= sc.separation + PARK_MARGIN for fx in fixed)]
+    return free or [s.name for s in rest]
+
+
 def simulate_failure(problem, plan, failure: model.Failure,
                      cfg: model.ReplanConfig | None = None, *,
                      energy: bool = False) -> SimulationResult:
@@ -156,40 +196,22 @@ def simulate_failure(problem, plan, failure: model.Failure,
     ``energy`` adds the mission's forward-speed term (eq. 9) to the backup's refinement; off
     by default: that second IPOPT solve roughly doubles the replan time for a cost term,
     not a spec."""
-    from stlc.backends.team_backend import forward_speed_target, team_scenario
-    from stlc.planning.verify import recompute_derived
+    from stlc.backends.team_backend import forward_speed_target
 
     cfg = cfg if cfg is not None else model.ReplanConfig()
     backup = validate(problem, plan, failure, cfg)
     f, b = failure.vehicle, backup.name
     times = np.asarray(plan.times, dtype=float)
     dt, n = problem.grid.dt, len(times)
-    base = team_scenario(problem)
-    k_f = min(n - 1, int(math.floor(failure.time / dt + 1e-9)))
     k0 = int(math.ceil((failure.time + cfg.takeover_delay) / dt - 1e-9))
     notes: list[str] = []
-
-    # -------------------------------------------------- the team with the failed drone out
-    raw: dict[str, np.ndarray] = {}
-    for d in problem.team:
-        raw.update(_kin(plan.channels, d))
-    others = {d: _pos(plan.channels, d) for d in problem.team if d != f}
-    home = next((r for r in reversed(plan.routes.get(f, []))
-                 if r in {s.name for s in base.stations}), None)
-    park, clear = parking_station(base, home, others, k_f + 1, backup.start)
-    if park is None:
-        raise TakeoverError(f"mission `{problem.mission.name}` has no refilling station to "
-                            f"park the failed `{f}` in", f)
+    out = retire(problem, plan, failure, backup.start)
+    base, raw, others, park = out["base"], out["raw"], out["others"], out["park"]
+    pending, done = out["pending"], out["installed"]
     park_box = next(s for s in base.stations if s.name == park)
-    _set(raw, f, slice(k_f + 1, None), centre(park_box))
-    if clear < base.separation:
-        notes.append(f"the failed {f} is parked in {park}, {clear:.2f} m from another drone "
-                     f"(< Γ_dis = {base.separation:g} m): no station is clear")
-    _, events = recompute_derived(problem, raw)
-    installed = {e.region for e in events if e.kind == "install"}
-    targets = failed_targets(plan, f, {t.name for t in base.targets})
-    pending = [t for t in targets if t not in installed]
-    done = [t for t in targets if t in installed]
+    if out["clearance"] < base.separation:
+        notes.append(f"the failed {f} is parked in {park}, {out['clearance']:.2f} m from "
+                     f"another drone (< Γ_dis = {base.separation:g} m): no station is clear")
 
     # -------------------------------------------------- the backup's replan
     t0 = float(k0 * dt)
@@ -197,10 +219,11 @@ def simulate_failure(problem, plan, failure: model.Failure,
                         triggered=bool(pending), kind="failure",
                         detail={"pending": pending, "installed_before_failure": done,
                                 "backup": b, "parked_in": park})
-    for c in ("pos", "vel", "acc"):
-        for a in "xyz":
-            raw[f"{b}.{c}.{a}"] = np.zeros(n)
-    _set(raw, b, slice(None), np.asarray(backup.start))
+    if pending:  # the backup joins the executed team, waiting at its start until t0
+        for c in ("pos", "vel", "acc"):
+            for a in "xyz":
+                raw[f"{b}.{c}.{a}"] = np.zeros(n)
+        _set(raw, b, slice(None), np.asarray(backup.start))
     if not pending:
         notes.append(f"{f} had installed all its targets by {failure.time:g} s: no replan "
                      "needed")
@@ -222,10 +245,12 @@ def simulate_failure(problem, plan, failure: model.Failure,
         eta = obj.forward_weight if energy else 0.0
         v_star = forward_speed_target(problem) if eta > 0 else None
         w0, c0 = time.perf_counter(), time.process_time()
-        bp = plan_backup(base, backup, pending, [s.name for s in base.stations if s.name != park],
-                         fixed, float(times[-1] - t0), lam=problem.smoothing.lam,
-                         kappa=problem.threshold, eta=eta if v_star is not None else 0.0,
-                         v_star=v_star, milp_budget_s=max(cfg.takeover_delay, 1.0))
+        stations = free_stations(base, park, fixed)
+        event.detail["stations"] = stations
+        bp = plan_backup(base, backup, pending, stations, fixed, float(times[-1] - t0),
+                         lam=problem.smoothing.lam, kappa=problem.threshold,
+                         eta=eta if v_star is not None else 0.0, v_star=v_star,
+                         milp_budget_s=max(cfg.takeover_delay, 1.0))
         event.solve_s = time.perf_counter() - w0
         event.detail.update(cpu_s=time.process_time() - c0, **_detail(bp, backup))
         event.status = str(bp.status)
@@ -239,7 +264,7 @@ def simulate_failure(problem, plan, failure: model.Failure,
             notes.append(f"the backup {b} has no plan: {bp.message}")
 
     # -------------------------------------------------- judge the executed trajectory
-    executed, rob = judge(problem, b, raw)
+    executed, rob = judge(problem, b if pending else None, raw)
     kept_names = list(cfg.specs) or [k for k in rob if k != "mission"]
     event.kept = {k: rob[k] for k in kept_names if k in rob}
     if event.triggered and event.accepted is None:
@@ -262,18 +287,21 @@ def _detail(bp: BackupPlan, backup: Drone) -> dict:
     return out
 
 
-def judge(problem, backup: str, raw: dict[str, np.ndarray]
+def judge(problem, backup: str | None, raw: dict[str, np.ndarray]
           ) -> tuple[dict[str, np.ndarray], dict[str, float]]:
     """The executed channels with derived signals and payload recomputed, and the exact
-    robustness of the mission (over the team with the backup) and of each named spec."""
+    robustness of the mission (over the team with the backup, if it was sent) and of each
+    named spec."""
     from stlc.analysis import monitor
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import recompute_derived
     from stlc.semantics.check import mission_for_team
 
     m = problem.mission
-    m_exec = mission_for_team(problem.program, m.name, (*problem.team, backup))
-    p_exec = from_mission(problem.program, m_exec, step=m.step, horizon=m.horizon)
+    p_exec = problem
+    if backup is not None:
+        m_exec = mission_for_team(problem.program, m.name, (*problem.team, backup))
+        p_exec = from_mission(problem.program, m_exec, step=m.step, horizon=m.horizon)
     ch, _ = recompute_derived(p_exec, raw)
     dt, params = p_exec.grid.dt, p_exec.params
     rob = {"mission": float(monitor.robustness(p_exec.requirement, dt, ch, params))}
