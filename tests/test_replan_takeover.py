@@ -8,6 +8,8 @@ computed here from the positions, boxes and dwell times, not taken from the take
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -121,6 +123,11 @@ def test_backup_installs_and_keeps_separation(planned):
     assert np.all(np.abs(vel) <= np.asarray(v.vel_max) + 1e-9)
     assert np.all(np.abs(acc) <= np.asarray(v.acc_max) + 1e-9)
     assert np.all(np.abs(np.diff(p3, axis=0)) / dt <= np.asarray(v.vel_max) + 1e-6)
+    # replan.json / executed.csv contents
+    doc = json.loads(res.to_json())
+    assert doc["events"][0]["detail"]["pending"] == ["ta"]
+    assert doc["executed"]["satisfied"]["install"] is True
+    assert res.executed_csv().splitlines()[0].split(",")[0] == "t"
     # the replanned segment is reported on its own grid
     assert ev.times[0] == pytest.approx(t_fail + t_rep) and len(ev.channels["uav3.pos.x"]) \
         == len(ev.times)
