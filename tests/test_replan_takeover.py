@@ -99,6 +99,7 @@ def test_backup_installs_and_keeps_separation(planned):
     assert ev.triggered and ev.kind == "failure" and ev.vehicle == "uav1"
     assert ev.detail["pending"] == ["ta"]
     assert ev.status in ("optimal", "acceptable") and ev.accepted
+    assert ev.detail["sep_rows"] > 0  # rows against the fixed uav2 were generated
     assert ev.segment == pytest.approx((t_fail + t_rep, T_N))
     ex = res.executed
     p3 = _pos(ex, "uav3")
