@@ -38,7 +38,9 @@ Semantics (the decisions the paper leaves open):
 * **Accepted** when the replan converged (MILP optimal, IPOPT optimal/acceptable), took at
   most T_rep (the time the paper reserves for it) and every kept spec is ≥ κ on the
   executed trajectory. ``within_budget`` compares the replan time with the 2 s goal
-  (``GOAL_S``, paper B: "approximately 2 s").
+  (``GOAL_S``, paper B: "approximately 2 s"). A plan that is not accepted is still flown in
+  the executed trajectory, so that its robustness shows what it would do; when the MILP or
+  the seed finds no plan (no time left, no assignment fits) the backup stays at its start.
 * **Nothing pending** (the failed drone had finished its installs) is no error: the event is
   not triggered, the backup is not sent and the executed team is the mission's own.
 
