@@ -6,17 +6,28 @@ Every sampled quantity is a sparse linear row of w (``_rows``), so the linear co
 (velocity, acceleration, workspace, dwell) are one constant sparse matrix, and the only
 nonlinear rows are the separation and obstacle rows chosen by constraint generation plus
 the optional energy term. See ``stlc.team.refine`` for the formulation.
+
+**Fixed drones** (backup-drone takeover, paper B §IV-C, ``stlc.replan.takeover``): a drone
+of the scenario given as a ``FixedDrone`` carries its dense trajectory on the refinement
+grid. It is not planned: its knot variables are pinned to 0 and it has no linear rows
+(bounds, workspace, dwells) and no energy or smoothness term; it appears only in the
+separation rows, as constant positions (rows between two fixed drones and obstacle rows of
+a fixed drone involve no variable and are dropped), and ``plan`` returns its given
+trajectory. Because it is a member of the scenario, the refinement's constraint generation
+(``stlc.team.refine``) finds the samples where a planned drone comes close to it exactly as
+for two planned drones. Without fixed drones nothing changes.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from stlc.team import TeamPlan, TeamScenario, Visit
+from stlc.team import Drone, TeamPlan, TeamScenario, Visit
 from stlc.team.retime import Schedule
 from stlc.team.waypoints import _locate, check_times, hermite_weights, overshoot
 
@@ -24,11 +35,35 @@ _IPOPT = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
           "ipopt.max_iter": 400, "ipopt.tol": 1e-6, "ipopt.mu_strategy": "adaptive"}
 
 
+@dataclass(frozen=True, eq=False)
+class FixedDrone(Drone):
+    """A drone whose trajectory is given, not planned (see the module docstring): ``pos``,
+    ``vel``, ``acc`` are (n, 3) arrays on the refinement's dense grid; ``start`` must be
+    ``pos[0]``."""
+
+    pos: np.ndarray | None = None
+    vel: np.ndarray | None = None
+    acc: np.ndarray | None = None
+
+
+def fixed_trajectory(drone: Drone) -> np.ndarray | None:
+    """The given positions of a fixed drone, None for a planned one."""
+    return getattr(drone, "pos", None)
+
+
 class TeamNLP:
     def __init__(self, scenario: TeamScenario, sched: Schedule, times: np.ndarray,
                  lam: float = 10.0):
         self.sc, self.sched, self.times, self.lam = scenario, sched, times, lam
         self.names = [d.name for d in scenario.drones]
+        #: drone index -> given (n, 3) positions, for the fixed drones
+        self.fixed = {d: np.asarray(fixed_trajectory(dr), dtype=float)
+                      for d, dr in enumerate(scenario.drones)
+                      if fixed_trajectory(dr) is not None}
+        for d, p in self.fixed.items():
+            if p.shape != (len(times), 3):
+                raise ValueError(f"fixed drone {self.names[d]}: positions of shape "
+                                 f"{p.shape}, expected ({len(times)}, 3)")
         self.D, self.K = len(self.names), len(sched.knots)
         self.nw = 6 * self.D * self.K + 1
         self.h = float(sched.knots[1] - sched.knots[0])
@@ -62,6 +97,11 @@ class TeamNLP:
         self.ubx = np.full(self.nw, np.inf)
         self.acc_rows = []
         for d, drone in enumerate(sc.drones):
+            if d in self.fixed:  # not planned: every knot variable pinned to 0
+                for j in range(3):
+                    c = self._col(d, j, 0, 0)
+                    self.lbx[c:c + 2 * K] = self.ubx[c:c + 2 * K] = 0.0
+                continue
             for j in range(3):
                 # 1e-6 inside the bounds: IPOPT may relax bounds by ~1e-8 (bound_relax_factor)
                 vbar, abar = drone.vel_max[j] - 1e-6, drone.acc_max[j] - 1e-6
@@ -108,8 +148,9 @@ class TeamNLP:
         a0 = sp.vstack([acc[:nseg] for acc in self.acc_rows]).tocsc()
         a1 = sp.vstack([acc[nseg:] for acc in self.acc_rows]).tocsc()
         self.acc_ends = (ca.DM(a0), ca.DM(a1))
-        amax = max(max(dr.acc_max) for dr in sc.drones)
-        self.reg_weight = 1e-3 * (h / 3) / (self.D * sc.horizon * amax**2)
+        amax = max(max(dr.acc_max) for d, dr in enumerate(sc.drones) if d not in self.fixed)
+        planned = self.D - len(self.fixed)
+        self.reg_weight = 1e-3 * (h / 3) / (planned * sc.horizon * amax**2)
         lam, gam = self.lam, sc.separation
         p, q, lo, hi = (ca.SX.sym(n, 3) for n in ("p", "q", "lo", "hi"))
         c, r = ca.SX.sym("c"), ca.SX.sym("r")
@@ -130,10 +171,21 @@ class TeamNLP:
         for j in range(3):
             m = sp.csr_matrix((len(ks), self.nw))
             for d in np.unique(ds):
+                if int(d) in self.fixed:  # constant: see _fixed_at
+                    continue
                 sel = np.flatnonzero(ds == d)
                 part = self._at(int(d), j, t[sel], order).tocoo()
                 m = m + sp.csr_matrix((part.data, (sel[part.row], part.col)), shape=m.shape)
             out.append(m.tocsc())
+        return out
+
+    def _fixed_at(self, ds: np.ndarray, ks: np.ndarray) -> np.ndarray:
+        """(3, len) given positions of the fixed drones among ds[i] at samples ks[i]
+        (0 for planned drones)."""
+        out = np.zeros((3, len(ks)))
+        for d, p in self.fixed.items():
+            sel = np.flatnonzero(ds == d)
+            out[:, sel] = p[ks[sel]].T
         return out
 
     def build(self, x, sep, obs, energy, r_floor, ipopt):
@@ -146,10 +198,17 @@ class TeamNLP:
         g, lb, ub = [ca.mtimes(self.A_dm, w)], [self.lbg_lin], [self.ubg_lin]
 
         def positions(ds, ks):
-            mats = self._select(np.asarray(ds), np.asarray(ks), 0)
+            ds, ks = np.asarray(ds), np.asarray(ks)
+            mats = self._select(ds, ks, 0)
             sym = ca.horzcat(*[ca.mtimes(ca.DM(m), w) for m in mats]).T
-            return sym, np.stack([m @ x for m in mats], axis=0)
+            const = self._fixed_at(ds, ks)
+            if self.fixed:
+                sym = sym + ca.DM(const)
+            return sym, np.stack([m @ x for m in mats], axis=0) + const
 
+        fixed = self.fixed
+        sep = {key for key in sep if not (key[0] in fixed and key[1] in fixed)}
+        obs = {key for key in obs if key[0] not in fixed}
         if sep:
             items = sorted(sep)
             pa, _ = positions([i for i, _, _ in items], [k for *_, k in items])
@@ -194,7 +253,7 @@ class TeamNLP:
         total = 0
         for d, name in enumerate(self.names):
             ks = np.flatnonzero(self.transit_mask(name))
-            if len(ks) == 0:
+            if len(ks) == 0 or d in self.fixed:
                 continue
             mx, my, _ = self._select(np.full(len(ks), d), ks, 1)
             vx, vy = ca.mtimes(ca.DM(mx), w), ca.mtimes(ca.DM(my), w)
@@ -210,12 +269,14 @@ class TeamNLP:
         vs = v_star if isinstance(v_star, dict) else {d.name: v_star for d in self.sc.drones}
         return sum(forward_cost(plan.vel[dr.name], self.transit_mask(dr.name),
                                 feasible_forward_speed(vs[dr.name], dr.vel_max))
-                   for dr in self.sc.drones)
+                   for d, dr in enumerate(self.sc.drones) if d not in self.fixed)
 
     # ------------------------------------------------------------------ packing
     def pack(self, knots: dict[str, tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
         x = np.zeros(self.nw)
         for d, name in enumerate(self.names):
+            if d in self.fixed:
+                continue
             p, v = knots[name]
             for j in range(3):
                 base = (3 * d + j) * 2 * self.K
@@ -226,6 +287,11 @@ class TeamNLP:
     def plan(self, x: np.ndarray, seed: TeamPlan) -> TeamPlan:
         pos, vel, acc = {}, {}, {}
         for d, name in enumerate(self.names):
+            if d in self.fixed:
+                dr = self.sc.drones[d]
+                pos[name], vel[name], acc[name] = (np.array(a, dtype=float)
+                                                   for a in (dr.pos, dr.vel, dr.acc))
+                continue
             cols = [[self._at(d, j, self.times, o) @ x for j in range(3)] for o in (0, 1, 2)]
             pos[name], vel[name], acc[name] = (np.stack(c, axis=1) for c in cols)
         knots = self.sched.knots
