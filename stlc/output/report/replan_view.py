@@ -24,7 +24,7 @@ from stlc.semantics.model import Mission, Program
 from .common import drone_color, fmt, num, nums
 
 #: the simulation's colours: nominal (grey), replanned segments, trigger markers
-NOMINAL, REPLANNED, TRIGGER = "#8a94a3", "#e08a00", "#c5221f"
+NOMINAL, REPLANNED, TRIGGER = "#8a94a3", "#e7298a", "#c5221f"
 
 
 def _xyz(channels: dict, v: str, idx=None) -> list | None:
@@ -47,10 +47,14 @@ def replan(program: Program, mission: Mission, solution: Solution, sim) -> dict 
     kappa = sim.threshold
     vehicles = sorted({k.split(".")[0] for k in sim.executed if ".pos." in k},
                       key=lambda v: (v not in mission.vehicles, v))
+    # a failed drone is drawn up to its failure (it is then parked out of the mission)
+    until = {f.vehicle: f.time for f in sim.failures}
     paths = []
     for i, v in enumerate(vehicles):
+        flown = None if v not in until else slice(0, int(np.searchsorted(
+            sim.times, until[v] + 1e-9)))
         paths.append({"vehicle": v, "color": drone_color(i),
-                      "nominal": _xyz(sim.nominal, v), "executed": _xyz(sim.executed, v)})
+                      "nominal": _xyz(sim.nominal, v), "executed": _xyz(sim.executed, v, flown)})
     segments, markers, rows = [], [], []
     for e in sim.events:
         if not e.triggered:
