@@ -51,7 +51,6 @@ carrying the offending object for a diagnostic.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
