@@ -230,3 +230,18 @@ def test_bad_inputs_raise_errors_naming_the_culprit(point):
     with pytest.raises(KeptSpecError, match="`nope`"):
         simulate_disturbances(problem, plan, [], replace(cfg, specs=("nope",)))
     assert math.isfinite(cfg.threshold)
+
+
+def test_inexact_plan_is_flown_with_its_defects(point):
+    """A plan whose states do not follow from its inputs (here: hovering in place while
+    its velocity channel says 0.1 m/s along x, i.e. a 0.01 m defect per 0.1 s step) is
+    flown exactly as planned when undisturbed, and the defect is noted."""
+    problem, plan, cfg = point
+    ch = dict(plan.channels)
+    ch["p1.vel.x"] = np.full(problem.grid.n, 0.1)
+    bent = replace(plan, channels=ch)
+    res = simulate_disturbances(problem, bent, [], cfg)
+    assert not any(e.triggered for e in res.events)
+    assert max(e.deviation for e in res.events) == pytest.approx(0.0, abs=1e-12)
+    assert res.executed["p1.pos.x"] == pytest.approx(np.zeros(problem.grid.n), abs=1e-12)
+    assert any("defects up to 0.01 m" in note for note in res.notes)
