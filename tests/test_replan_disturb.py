@@ -245,3 +245,12 @@ def test_inexact_plan_is_flown_with_its_defects(point):
     assert max(e.deviation for e in res.events) == pytest.approx(0.0, abs=1e-12)
     assert res.executed["p1.pos.x"] == pytest.approx(np.zeros(problem.grid.n), abs=1e-12)
     assert any("defects up to 0.01 m" in note for note in res.notes)
+
+
+def test_bad_replan_settings_and_values_raise(point):
+    problem, plan, cfg = point
+    with pytest.raises(ValueError, match="event_period"):
+        simulate_disturbances(problem, plan, [], replace(cfg, event_period=0.0))
+    with pytest.raises(DisturbanceError, match="not finite"):
+        simulate_disturbances(problem, plan, [model.Disturbance("p1", 1.0, (math.nan, 0, 0))],
+                              cfg)

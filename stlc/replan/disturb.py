@@ -11,7 +11,7 @@ open is decided here):
   There is no tracking controller: a deviation below ζ persists (a pure displacement stays
   constant, a velocity kick grows linearly), until an event triggers a replan.  A plan that
   is not an exact solution of the discrete model (a team plan sampled from motion
-  primitives; the full-dynamics NLP plan has defects ~1e-8) would drift away from itself
+  primitives; the full-dynamics NLP plan has defects ~1e-10) would drift away from itself
   when flown open loop (metres, on a 40 s team plan), so each step adds the reference's own
   one-step defect ``x_{k+1} − F(x_k, u_k)``: undisturbed, the vehicle flies exactly its
   plan; disturbed, the deviation evolves through the model.  Replanned segments are exact
@@ -49,7 +49,8 @@ open is decided here):
   recomputed as ``planning.verify`` does) are on the mission grid, and the exact robustness
   of the requirement (``"mission"``) and of every named spec is evaluated on them.
 
-Errors: ``DisturbanceError`` (unknown vehicle, time outside the horizon) and
+Errors: ``DisturbanceError`` (unknown vehicle, time outside the horizon, not finite),
+``ValueError`` (a non-positive period or threshold, a negative budget) and
 ``segment.KeptSpecError`` (a kept spec that a segment cannot keep), both ``ValueError``s
 carrying the offending object for a diagnostic.
 """
@@ -82,7 +83,8 @@ __all__ = ["DisturbanceError", "KeptSpecError", "simulate_disturbances"]
 
 
 class DisturbanceError(ValueError):
-    """A disturbance that cannot be applied (unknown vehicle, time outside the horizon)."""
+    """A disturbance that cannot be applied (unknown vehicle, time outside the horizon, a
+    value that is not finite)."""
 
     def __init__(self, disturbance: model.Disturbance, message: str):
         super().__init__(message)
@@ -118,10 +120,19 @@ def _inputs(v: model.Vehicle, channels: dict, n: int) -> np.ndarray:
     return np.stack([np.asarray(channels[c], float)[:n - 1] for c in names], axis=1)
 
 
-def _check(problem, disturbances: list[model.Disturbance]) -> None:
+def _check(problem, disturbances: list[model.Disturbance], cfg: model.ReplanConfig) -> None:
+    for what, x in (("event_period", cfg.event_period), ("waypoint_period",
+                    cfg.waypoint_period), ("threshold", cfg.threshold)):
+        if not (math.isfinite(x) and x > 0):
+            raise ValueError(f"replan {what} must be a positive number, got {x:g}")
+    if not (math.isfinite(cfg.compute_budget) and cfg.compute_budget >= 0):
+        raise ValueError(f"replan budget must be >= 0 s, got {cfg.compute_budget:g}")
     team = set(problem.team)
     T = problem.grid.horizon
     for d in disturbances:
+        if not all(math.isfinite(x) for x in (*d.displacement, *d.velocity)):
+            raise DisturbanceError(d, f"disturbance of `{d.vehicle}` at {d.time:g} s is not "
+                                   "finite")
         if d.vehicle not in team:
             raise DisturbanceError(d, f"disturbance of `{d.vehicle}`, which is not in mission "
                                    f"`{problem.mission.name}` ({', '.join(problem.team)})")
@@ -145,7 +156,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
     grid = problem.grid
     dt, n = grid.dt, grid.n
     disturbances = sorted(disturbances, key=lambda d: d.time)
-    _check(problem, disturbances)
+    _check(problem, disturbances, cfg)
     integrator = str(problem.mission.options.get("integrator", "rk4"))
     tracks: dict[str, _Track] = {}
     for v in problem.vehicles():
