@@ -160,19 +160,37 @@ def test_push_above_threshold_replans_around_the_kept_obstacle(point):
 
 
 def test_pending_replan_is_the_reference_until_it_starts(point):
-    """t_c = 0.9 s: the replan triggered at 1.0 s starts at 1.9 s; the event at 1.5 s
+    """t_c = 0.6 s: the replan triggered at 1.0 s starts at 1.6 s; the event at 1.5 s
     compares with the predicted path (the pushed hover), so it does not trigger again."""
+    problem, plan, cfg = point
+    cfg = replace(cfg, compute_budget=0.6)
+    res = simulate_disturbances(problem, plan, [model.Disturbance("p1", 1.0, (0.0, 1.2, 0.0))],
+                                cfg)
+    (e,) = res.triggered
+    assert e.segment == pytest.approx((1.6, 3.0)) and e.accepted
+    at = {round(x.time, 6): x.deviation for x in res.events}
+    assert at[1.0] == pytest.approx(1.2) and at[1.5] == pytest.approx(0.0, abs=1e-9)
+    # the vehicle hovers where it was pushed until the replan starts
+    assert pos(res, "p1", 16) == pytest.approx([0.0, 1.2, 1.0], abs=1e-9)
+    assert pos(res, "p1", 30) == pytest.approx([0.0, 0.0, 1.0], abs=1e-6)
+
+
+def test_infeasible_replan_is_reported_and_the_next_event_retries(point):
+    """t_c = 0.9 s: the first segment (1.9 → 3.0 s) is 1.1 s long; rest to rest with
+    |a| ≤ 3 m/s² covers at most a·T²/4 = 0.9075 m < 1.2 m, so it is infeasible and not
+    flown; the event at 1.5 s gets 1.6 s (at most 1.92 m) and succeeds."""
     problem, plan, cfg = point
     cfg = replace(cfg, compute_budget=0.9)
     res = simulate_disturbances(problem, plan, [model.Disturbance("p1", 1.0, (0.0, 1.2, 0.0))],
                                 cfg)
-    (e,) = res.triggered
-    assert e.segment == pytest.approx((1.9, 3.0)) and e.accepted
-    at = {round(x.time, 6): x.deviation for x in res.events}
-    assert at[1.0] == pytest.approx(1.2) and at[1.5] == pytest.approx(0.0, abs=1e-9)
-    # the vehicle hovers where it was pushed until the replan starts
-    assert pos(res, "p1", 19) == pytest.approx([0.0, 1.2, 1.0], abs=1e-9)
-    assert pos(res, "p1", 30) == pytest.approx([0.0, 0.0, 1.0], abs=1e-6)
+    first, second = res.triggered
+    assert first.segment == pytest.approx((1.9, 3.0))
+    assert first.status == "infeasible" and first.accepted is False
+    assert first.solve_s is not None
+    assert second.time == pytest.approx(1.5) and second.deviation == pytest.approx(1.2)
+    assert second.segment == pytest.approx((2.4, 4.0)) and second.accepted
+    assert pos(res, "p1", 24) == pytest.approx([0.0, 1.2, 1.0], abs=1e-9)
+    assert pos(res, "p1", 40) == pytest.approx([0.0, 0.0, 1.0], abs=1e-6)
 
 
 def test_impossible_budget_is_reported_and_not_flown(point):
