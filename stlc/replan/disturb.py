@@ -50,7 +50,7 @@ open is decided here):
   of the requirement (``"mission"``) and of every named spec is evaluated on them.
 
 Errors: ``DisturbanceError`` (unknown vehicle, time outside the horizon, not finite),
-``ValueError`` (a non-positive period or threshold, a negative budget) and
+``ValueError`` (a non-positive period, threshold or budget) and
 ``segment.KeptSpecError`` (a kept spec that a segment cannot keep), both ``ValueError``s
 carrying the offending object for a diagnostic.
 """
@@ -122,11 +122,10 @@ def _inputs(v: model.Vehicle, channels: dict, n: int) -> np.ndarray:
 
 def _check(problem, disturbances: list[model.Disturbance], cfg: model.ReplanConfig) -> None:
     for what, x in (("event_period", cfg.event_period), ("waypoint_period",
-                    cfg.waypoint_period), ("threshold", cfg.threshold)):
+                    cfg.waypoint_period), ("threshold", cfg.threshold),
+                    ("budget", cfg.compute_budget)):
         if not (math.isfinite(x) and x > 0):
             raise ValueError(f"replan {what} must be a positive number, got {x:g}")
-    if not (math.isfinite(cfg.compute_budget) and cfg.compute_budget >= 0):
-        raise ValueError(f"replan budget must be >= 0 s, got {cfg.compute_budget:g}")
     team = set(problem.team)
     T = problem.grid.horizon
     for d in disturbances:
