@@ -209,6 +209,7 @@ def test_impossible_budget_is_reported_and_not_flown(point):
     # never flown: every later event still sees the 1.2 m offset, and it is still there
     assert [e.time for e in trig] == pytest.approx([1.0 + 0.5 * k for k in range(11)])
     assert pos(res, "p1", -1) == pytest.approx([1.2, 0.0, 1.0], abs=1e-9)
+    assert any("budget = 0.0001 s is not a multiple" in note for note in res.notes)
     d = res.to_json_dict()
     assert d["events"][2]["status"] == "max_time" and d["events"][2]["solve_s"] > 0
 

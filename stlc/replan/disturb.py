@@ -71,7 +71,7 @@ from stlc.planning.verify import recompute_derived
 from stlc.replan.result import ReplanEvent, SimulationResult
 from stlc.replan.segment import Clause, KeptSpecError, SegmentNlp, kept_clauses
 from stlc.semantics import model
-from stlc.semantics.timegrid import steps_ceil
+from stlc.semantics.timegrid import is_aligned, steps_ceil
 
 #: largest |state − goal| (any component, SI units) at the end of a flown replan
 REJOIN_TOL = 1e-4
@@ -168,7 +168,11 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
         tracks[v.name] = _Track(v, ref_X, ref_U, np.zeros_like(ref_X), ref_U.copy(),
                                 kept_clauses(problem, cfg.specs, v), step, D,
                                 pos=vm.pos_index())
-    notes: list[str] = []
+    notes = [f"replan {what} = {x:g} s is not a multiple of the step {dt:g} s: rounded up "
+             "to the next sample" for what, x in (("event_period", cfg.event_period),
+                                                  ("waypoint_period", cfg.waypoint_period),
+                                                  ("budget", cfg.compute_budget))
+             if not is_aligned(x, dt)]
     G = max(1, steps_ceil(cfg.waypoint_period, dt))
     M = 2 * G - 1
     kicks: dict[int, list[model.Disturbance]] = {}
