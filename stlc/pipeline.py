@@ -279,17 +279,28 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
         diags.append(Diagnostic("STL401", f"a backup-drone takeover needs a team mission "
                                 f"with payloads (paper B); `{m.name}` has none", span,
                                 "simulate disturbances on this mission instead"))
-    elif dist and _reads_payload(m):
-        diags.append(Diagnostic("STL401", "disturbance replanning plans one vehicle with "
-                                "its full dynamics; a team mission replans with a backup "
-                                "drone", span, "simulate a failure: --fail DRONE@T --backup "
-                                "DRONE"))
     elif len(fails) > 1:
         diags.append(Diagnostic("STL401", "one drone failure per simulation", span,
                                 "simulate the failures one at a time"))
     if diags:
         raise StlcError(diags)
     return dist, fails
+
+
+def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfig) -> None:
+    """Before any solve: can a replanning segment keep the specs of ``keep = [...]``?"""
+    from stlc.planning.problem import from_mission
+    from stlc.replan.segment import KeptSpecError, kept_clauses
+
+    problem = from_mission(program, m)
+    try:
+        for v in problem.vehicles():
+            kept_clauses(problem, cfg.specs, v)
+    except KeptSpecError as e:
+        span = m.spec_spans.get(e.spec) or program.spec_spans.get(e.spec) or m.span
+        raise StlcError([Diagnostic("STL401", str(e), span, "a replanning segment keeps "
+                                    "`always` specs over the vehicle's own state, like "
+                                    "`safety`; keep only those")]) from None
 
 
 def _reads_payload(m: model.Mission) -> bool:
@@ -320,9 +331,11 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     dist, fails = simulation_events(path, program, m, disturbances, failures)
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2))
+    cfg = m.replan or model.ReplanConfig()
+    if dist:
+        _check_kept(program, m, cfg)
     problem, sol = plan(program, m, quiet=quiet)
     sol.timing.update(loaded.timing)
-    cfg = m.replan or model.ReplanConfig()
     t1 = time.perf_counter()
     try:
         if fails:
@@ -333,10 +346,12 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
             from stlc.replan.disturb import simulate_disturbances
 
             sim = simulate_disturbances(problem, sol, dist, cfg)
-    except ValueError as e:  # the replanning modules' input errors (ReplanInputError)
-        if type(e).__name__ == "ValueError":
+    except ValueError as e:  # the replanning modules' input errors (subclasses)
+        if type(e) is ValueError:
             raise
-        raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}", m.span,
+        span = getattr(getattr(e, "disturbance", None), "span", None)
+        raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}",
+                                    span if span is not None and span.known else m.span,
                                     "see `stlc simulate` in the README")]) from None
     # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
     # whole mission, judged over the executed team

@@ -65,7 +65,7 @@ def replan(program: Program, mission: Mission, solution: Solution, sim) -> dict 
         if p is not None:
             markers.append({"t": e.time, "x": p[0], "y": p[1], "z": p[2], "label": label,
                             "kind": e.kind})
-        if e.times is not None and e.channels:
+        if e.accepted and e.times is not None and e.channels:  # what was flown
             for v in sorted({k.split(".")[0] for k in e.channels if ".pos." in k}):
                 seg = _xyz(e.channels, v)
                 if seg is not None:
