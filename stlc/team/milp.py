@@ -57,6 +57,7 @@ import scipy.sparse as sp
 
 from stlc.team import AssignmentError, TeamScenario, centre, samples_for
 from stlc.team.cuts import cuts_for, segments, station_shared
+from stlc.team.paths import leg_steps, router_for
 from stlc.team.primitives import min_duration
 
 #: options passed to HiGHS; presolve off: on these small models it costs more than it saves
@@ -74,7 +75,8 @@ class AssignStats:
     cuts: int = 0  # lazy cuts added
     objective: float = 0.0
     drone_time: dict[str, float] = field(default_factory=dict)  # route time per drone, s
-    #: "milp" (optimal) or "greedy" (the MILP exceeded its time budget: not optimal)
+    #: "milp" (optimal) or "greedy" (the MILP exceeded its time budget: the heuristic of
+    #: ``stlc.team.local`` — greedy start, local search — feasible, not optimal)
     method: str = "milp"
 
 
@@ -86,8 +88,13 @@ class Arc:
     cost: float
 
 
-def leg_time(p0, p1, vel_max, acc_max, step: float) -> float:
-    """Rest-to-rest travel time rounded up to whole steps (``inf`` if impossible)."""
+def leg_time(p0, p1, vel_max, acc_max, step: float, router=None) -> float:
+    """Rest-to-rest travel time rounded up to whole steps (``inf`` if impossible); with a
+    ``stlc.team.paths.Router``, the time of the seed's obstacle-aware leg (detours included,
+    each sub-leg rounded up on its own)."""
+    if router is not None:
+        return step * sum(leg_steps(router.path(p0, p1, vel_max, acc_max), vel_max, acc_max,
+                                    step))
     t = min_duration(p0, p1, vel_max, acc_max)
     return math.inf if math.isinf(t) else step * samples_for(t, step)
 
@@ -106,11 +113,12 @@ def build_arcs(sc: TeamScenario) -> list[Arc]:
     ins, rs = dwell_times(sc)
     tc = [centre(b) for b in sc.targets]
     scen = [centre(b) for b in sc.stations]
+    router = router_for(sc)
     arcs: list[Arc] = []
     for d, dr in enumerate(sc.drones):
 
         def leg(a, b, dr=dr):
-            return leg_time(a, b, dr.vel_max, dr.acc_max, sc.step)
+            return leg_time(a, b, dr.vel_max, dr.acc_max, sc.step, router)
 
         start = np.asarray(dr.start, dtype=float)
         can = dr.capacity > 0
@@ -339,8 +347,9 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
     """Route of every drone (ordered target and station names, ending at its home station
     when there are stations) and the solve statistics.  Raises ``AssignmentError`` when no
     assignment exists (capacity, reachability, horizon).  When the lazy-cut loop exceeds
-    ``budget_s`` seconds the routes come from ``stlc.team.greedy`` instead
-    (``stats.method == "greedy"``: feasible, not optimal)."""
+    ``budget_s`` seconds the routes come from the heuristic instead (``stlc.team.greedy``
+    start, ``stlc.team.local`` search; ``stats.method == "greedy"``: feasible, not
+    optimal)."""
     c0, w0 = time.process_time(), time.perf_counter()
     stats = AssignStats()
     sc = scenario
@@ -378,15 +387,22 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
 
 def _fallback(sc: TeamScenario, stats: AssignStats, limit: float, c0: float, w0: float):
     from stlc.team.greedy import greedy_routes
+    from stlc.team.local import local_routes
 
     vm = {d.name: d for d in sc.drones}
-    routes = greedy_routes(sc, lambda p0, p1, d: leg_time(p0, p1, d.vel_max, d.acc_max,
-                                                          sc.step), dwell_times(sc))
+    router = router_for(sc)
+
+    def leg(p0, p1, d):
+        return leg_time(p0, p1, d.vel_max, d.acc_max, sc.step, router)
+
+    routes = greedy_routes(sc, leg, dwell_times(sc))
+    if sc.stations:
+        routes = local_routes(sc, leg, dwell_times(sc), limit, routes)
     names = [d.name for d in sc.drones]
     for name, r in routes.items():
         t = route_time(sc, names.index(name), r)
         if t > limit + 1e-9:
-            raise AssignmentError(f"the greedy assignment (the MILP exceeded its {BUDGET_S:g} s "
+            raise AssignmentError(f"the heuristic assignment (the MILP exceeded its time "
                                   f"budget) does not fit the horizon: {name} needs {t:.1f} s",
                                   reason="horizon", subject=vm[name].name)
         stats.drone_time[name] = t
@@ -406,7 +422,7 @@ def route_time(scenario: TeamScenario, drone: int, route: list[str]) -> float:
     for name in route:
         kind, box = regions[name]
         c = centre(box)
-        total += leg_time(p, c, dr.vel_max, dr.acc_max, sc.step)
+        total += leg_time(p, c, dr.vel_max, dr.acc_max, sc.step, router_for(sc))
         total += ins if kind == "T" else 0.0
         total += rs if prev == "S" and kind == "T" else 0.0
         p, prev = c, kind
