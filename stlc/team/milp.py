@@ -69,7 +69,8 @@ from stlc.team.paths import router_for
 #: options passed to HiGHS; presolve off: on these small models it costs more than it saves
 #: (4×11 mission: 2.3 s instead of 3.5 s CPU over the lazy rounds)
 HIGHS_OPTIONS: dict[str, object] = {"presolve": "off"}
-BUDGET_S = 30.0  # wall seconds for the exact MILP before the greedy fallback
+BUDGET_S = 30.0  # wall seconds for the exact MILP before the best known assignment is used
+WARM_AFTER_S = 10.0  # wall seconds before the heuristic is computed and warm-starts HiGHS
 Node = tuple[str, int]  # ("D", drone) | ("T", target) | ("S", station) | ("E", 0)
 
 
@@ -265,16 +266,30 @@ def _violated(model: _Model, arcs: list[Arc], xv: np.ndarray) -> list:
 
 def _lazy_solve(sc: TeamScenario, arcs: list[Arc], limit: float | None, w: float,
                 stats: AssignStats, max_rounds: int, deadline: float = math.inf,
-                start_routes: dict[str, list[str]] | None = None
+                start_routes=None, warm_at: float = math.inf
                 ) -> tuple[np.ndarray, float] | None:
+    """The lazy-cut loop.  ``start_routes`` is a callable giving the warm-start routes (or
+    None); it is called once the loop is still running at wall time ``warm_at`` (the round
+    then running is stopped there and solved again with the start)."""
     model = _Model(sc, arcs, limit, w)
-    start = model.vector(start_routes) if start_routes else None
-    for _ in range(max_rounds):
-        stats.rounds += 1
-        left = deadline - time.perf_counter()
+    start = None
+    rounds = 0
+    while rounds < max_rounds:
+        now = time.perf_counter()
+        left = deadline - now
         if left <= 0:
             raise _Budget(None, -math.inf)
-        res: Result = model.solve(left if math.isfinite(left) else None, start)
+        cold = start is None and start_routes is not None and now < warm_at
+        if start is None and start_routes is not None and not cold:
+            routes = start_routes()
+            start = model.vector(routes) if routes else None
+            start_routes = None
+        cap = min(left, warm_at - now) if cold else left
+        res: Result = model.solve(cap if math.isfinite(cap) else None, start)
+        if res.status == "time" and cold and cap < left:
+            continue  # the warm start is due: solve this round again with it
+        rounds += 1
+        stats.rounds += 1
         if res.status == "time":  # the best solution so far, if it breaks no lazy row
             ok = res.x is not None and not _violated(model, arcs, res.x)
             raise _Budget(res.x if ok else None, res.bound)
@@ -323,14 +338,16 @@ def heuristic_routes(sc: TeamScenario, limit: float) -> dict[str, list[str]] | N
 
 
 def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
-           max_rounds: int = 200, budget_s: float = BUDGET_S, warm_start: bool = True
-           ) -> tuple[dict[str, list[str]], AssignStats]:
+           max_rounds: int = 200, budget_s: float = BUDGET_S, warm_start: bool = True,
+           warm_after: float = WARM_AFTER_S) -> tuple[dict[str, list[str]], AssignStats]:
     """Route of every drone (ordered target and station names, ending at its home station
     when there are stations) and the solve statistics.  Raises ``AssignmentError`` when no
     assignment exists (capacity, reachability, horizon).
 
-    The heuristic routes (``heuristic_routes``) are computed first and, with
-    ``warm_start``, given to HiGHS as the starting incumbent of every lazy-cut round.  When
+    When the loop is still running after ``warm_after`` seconds the heuristic routes
+    (``heuristic_routes``) are computed and, with ``warm_start``, given to HiGHS as the
+    starting incumbent of every later round (the round then running is restarted with
+    it; missions that solve sooner get exactly the cold MILP's routes).  When
     the loop exceeds ``budget_s`` seconds the result is the best feasible assignment known
     — HiGHS's incumbent if it breaks no lazy row, else the heuristic's (else the bare greedy
     rule) — with ``stats.method == "greedy"`` (not optimal), ``stats.incumbent`` saying
@@ -342,12 +359,18 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
     _precheck(sc, arcs)
     tail = dwell_times(sc)[1] if sc.stations else 0.0
     limit = sc.horizon - tail
-    heur = heuristic_routes(sc, limit)
+    heur: list = []  # computed at most once, when first needed
+
+    def heuristic():
+        if not heur:
+            heur.append(heuristic_routes(sc, limit))
+        return heur[0]
+
     try:
         res = _lazy_solve(sc, arcs, limit, makespan_weight, stats, max_rounds,
-                          w0 + budget_s, heur if warm_start else None)
+                          w0 + budget_s, heuristic if warm_start else None, w0 + warm_after)
     except _Budget as b:
-        return _fallback(sc, arcs, stats, limit, c0, w0, heur, b)
+        return _fallback(sc, arcs, stats, limit, c0, w0, heuristic(), b)
     if res is None:
         free = _lazy_solve(sc, arcs, None, makespan_weight, AssignStats(), max_rounds)
         if free is None:
