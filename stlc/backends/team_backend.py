@@ -119,16 +119,20 @@ class MilpSeed(Backend):
     STATUS_MAP = {"optimal": SolverStatus.OPTIMAL, "optimal_inaccurate": SolverStatus.ACCEPTABLE,
                   "infeasible": SolverStatus.INFEASIBLE, "user_limit": SolverStatus.MAX_TIME}
 
+    def __init__(self, budget_s: float | None = None):
+        self.budget_s = budget_s  # wall seconds for the exact MILP (None: milp.BUDGET_S)
+
     def lower(self, problem: PlanningProblem):
         return team_scenario(problem), None
 
     def solve(self, scenario, problem: PlanningProblem):
         from stlc.team import TeamError
-        from stlc.team.milp import assign
+        from stlc.team.milp import BUDGET_S, assign
         from stlc.team.seed import seed_plan
 
         try:
-            routes, stats = assign(scenario)
+            routes, stats = assign(scenario, budget_s=BUDGET_S if self.budget_s is None
+                                   else self.budget_s)
         except TeamError as e:
             raise StlcError([_diag(problem, e)]) from None
         t0 = time.perf_counter()
