@@ -1,10 +1,12 @@
 """Team backends (paper B): the task-assignment seed and the waypoint refinement.
 
-* ``MilpSeed`` — the capacitated multi-depot routing MILP (cvxpy + HiGHS, lazy sub-tour and
-  capacity cuts, ``stlc.team.milp``) decides who installs which target in which order and
-  where each drone refills and ends; rest-to-rest motion primitives with the dwells
-  (``stlc.team.seed``) turn the routes into a dynamically feasible trajectory sampled at
-  the mission step.  This is paper B's "MILP only" plan.
+* ``MilpSeed`` — the capacitated multi-depot routing MILP (HiGHS, lazy sub-tour and
+  capacity cuts, warm-started from a heuristic, ``stlc.team.milp``) decides who installs
+  which target in which order and where each drone refills and ends (past its time budget:
+  the best feasible assignment known, reported as not optimal with its lower bound);
+  rest-to-rest motion primitives with the dwells, detouring around obstacles
+  (``stlc.team.seed``, ``stlc.team.paths``), turn the routes into a dynamically feasible
+  trajectory sampled at the mission step.  This is paper B's "MILP only" plan.
 * ``TeamRefine`` — keeps the assignment and order, and maximises the margin of the safety,
   separation and dwell predicates over knot positions/velocities with cubic Hermite
   segments sampled densely (``stlc.team.refine``), with the forward-speed term of eq. (9)
@@ -104,22 +106,33 @@ def solution_plan(sol: Solution):
                     list(sol.visits), {d: list(r) for d, r in sol.routes.items()})
 
 
+def _gap(objective: float, bound: float) -> float | None:
+    """Relative gap (objective − bound) / objective of a not-optimal assignment."""
+    if not (np.isfinite(bound) and objective > 0):
+        return None
+    return max(0.0, (objective - bound) / objective)
+
+
 class MilpSeed(Backend):
-    name = "task-assignment MILP (cvxpy/HiGHS) + motion primitives"
+    name = "task-assignment MILP (HiGHS) + motion primitives"
     capabilities = _CAPS
     STATUS_MAP = {"optimal": SolverStatus.OPTIMAL, "optimal_inaccurate": SolverStatus.ACCEPTABLE,
                   "infeasible": SolverStatus.INFEASIBLE, "user_limit": SolverStatus.MAX_TIME}
+
+    def __init__(self, budget_s: float | None = None):
+        self.budget_s = budget_s  # wall seconds for the exact MILP (None: milp.BUDGET_S)
 
     def lower(self, problem: PlanningProblem):
         return team_scenario(problem), None
 
     def solve(self, scenario, problem: PlanningProblem):
         from stlc.team import TeamError
-        from stlc.team.milp import assign
+        from stlc.team.milp import BUDGET_S, assign
         from stlc.team.seed import seed_plan
 
         try:
-            routes, stats = assign(scenario)
+            routes, stats = assign(scenario, budget_s=BUDGET_S if self.budget_s is None
+                                   else self.budget_s)
         except TeamError as e:
             raise StlcError([_diag(problem, e)]) from None
         t0 = time.perf_counter()
@@ -138,7 +151,10 @@ class MilpSeed(Backend):
                                   else SolverStatus.MAX_TIME),
                     "assignment": stats.method,
                     "milp_rounds": stats.rounds, "lazy_cuts": stats.cuts,
-                    "objective_s": stats.objective, "milp_cpu_s": stats.cpu_s},
+                    "objective_s": stats.objective, "milp_cpu_s": stats.cpu_s,
+                    **({"incumbent": stats.incumbent, "lower_bound_s": stats.bound,
+                        "gap": _gap(stats.objective, stats.bound)}
+                       if stats.method != "milp" else {})},
             routes={d: list(r) for d, r in plan.route.items()}, visits=list(plan.visits))
 
 

@@ -7,12 +7,25 @@ rounds, objective, the seed's CPU time, per drone the route and the payload even
 from the seed's positions by the payload rule, and the minimum payload.
 
     python -m stlc.team.bench specs/bird_diverter_2x7.stl
+
+``scaling(paths, repeats)`` times the whole ``stlc compile`` (parse, assignment, seed,
+refinement, verification, outputs) of each file in a child process, ``repeats`` times, and
+prints per run and as medians: wall time, CPU time of the child (user + system, from
+``resource.getrusage``; the machine is shared, so CPU is the steadier number), the
+assignment method and time, IPOPT iterations and status, verdict and exact robustness:
+
+    python -m stlc.team.bench --compile specs/bird_diverter_2x7.stl specs/bird_diverter_4x11.stl
 """
 
 from __future__ import annotations
 
+import json
+import os
+import resource
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -60,6 +73,57 @@ def main(path: str, *, install_time: float = 5.0, refill_time: float = 12.0,
               + (f" (missing: {', '.join(missing)})" if missing else ""))
 
 
+def compile_once(path: str) -> dict:
+    """One ``stlc compile`` of ``path`` in a child process: timings and solver facts."""
+    with tempfile.TemporaryDirectory() as out:
+        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        w0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "stlc", "compile", "-q", "--no-risk",
+                               "-o", out, path], capture_output=True, text=True,
+                              env={**os.environ, "OMP_NUM_THREADS": "1"})
+        wall = time.perf_counter() - w0
+        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+        row = {"file": path, "exit": proc.returncode, "wall_s": wall, "cpu_s": cpu}
+        try:
+            with open(os.path.join(out, "solution.json"), encoding="utf-8") as f:
+                sol = json.load(f)
+        except (OSError, ValueError):
+            row["error"] = proc.stderr.strip()[-300:]
+            return row
+    solver, seed = sol.get("solver", {}), sol.get("solver", {}).get("seed", {})
+    rob = sol.get("robustness")
+    row.update(status=sol.get("status"),
+               exact=rob.get("exact") if isinstance(rob, dict) else rob,
+               iterations=solver.get("iterations"), ipopt=solver.get("ipopt_status"),
+               assignment=seed.get("assignment"), milp_s=sol.get("timing", {}).get("milp_s"),
+               solve_s=sol.get("timing", {}).get("solve_s"))
+    return row
+
+
+def scaling(paths: list[str], repeats: int = 3) -> list[dict]:
+    rows = []
+    for path in paths:
+        runs = []
+        for i in range(repeats):
+            r = compile_once(path)
+            runs.append(r)
+            print(f"{path} run {i + 1}: " + ", ".join(
+                f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}"
+                for k, v in r.items() if k != "file"), flush=True)
+        med = {k: statistics.median(r[k] for r in runs if r.get(k) is not None)
+               for k in ("wall_s", "cpu_s", "milp_s", "solve_s", "iterations")
+               if any(r.get(k) is not None for r in runs)}
+        print(f"{path}: median of {repeats}: " + ", ".join(f"{k} {v:.2f}" for k, v in
+                                                          med.items()), flush=True)
+        rows.append({"file": path, "runs": runs, "median": med})
+    return rows
+
+
 if __name__ == "__main__":
-    for p in sys.argv[1:]:
-        main(p)
+    args = sys.argv[1:]
+    if args and args[0] == "--compile":
+        scaling(args[1:])
+    else:
+        for p in args:
+            main(p)

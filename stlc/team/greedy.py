@@ -1,8 +1,9 @@
-"""A greedy task assignment, used when the exact MILP (``stlc.team.milp``) exceeds its time
-budget on a large team: not optimal, but every target is served once, capacities and
-refills are respected, each drone ends at a station (its own one when there are enough),
-and every route is checked against the horizon with the MILP's own cost model
-(``milp.route_time``).
+"""A greedy task assignment: the starting point of the heuristic (``stlc.team.local``) that
+stands in when the exact MILP (``stlc.team.milp``) exceeds its time budget on a large
+team, and the last resort without stations.  Not optimal, but every target is served
+once, capacities and refills are respected, each drone ends at a station (its own one when
+there are enough), and every route is checked against the horizon with the MILP's own
+cost model (``milp.route_time``).
 
 Rule: repeatedly, the (drone, target) pair with the earliest finishing time is chosen — a
 drone's clock is its route time so far, and a drone that is empty first flies to the

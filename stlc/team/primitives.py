@@ -14,6 +14,14 @@ for): every other axis keeps the acceleration ``ā_j`` and lowers its peak speed
 arrives at rest at the same time.  ``v_p ≤ v̄_j`` whenever ``T ≥ T_j``, so the bounds hold.
 Acceleration is piecewise constant and sampled right-continuously (the value on
 ``[t, t+dt)``); position and velocity are exact.
+
+The synchronised motion is not on the chord ``p0 → p1`` (each axis has its own profile).
+``straight=True`` gives the motion *on the chord*: one scalar profile ``s(t) ∈ [0, 1]``,
+``p = p0 + s·Δp``, with the bounds ``v̄_s = min_j v̄_j/|Δp_j|`` and ``ā_s = min_j ā_j/|Δp_j|``;
+every axis then shares the acceleration phase length.  Its minimum duration is
+``axis_time(1, v̄_s, ā_s)`` — equal to the synchronised one when one axis binds both bounds
+(isotropic bounds), never shorter.  The obstacle-aware legs (``stlc.team.paths``) use it so
+that a detour through via points stays on its collision-checked segments.
 """
 
 from __future__ import annotations
@@ -36,8 +44,22 @@ def axis_time(dist: float, vmax: float, amax: float) -> float:
     return 2.0 * math.sqrt(d / amax)
 
 
-def min_duration(p0, p1, vel_max, acc_max) -> float:
-    """Minimum feasible rest-to-rest time from ``p0`` to ``p1`` (``inf`` if impossible)."""
+def _scalar_bounds(p0, p1, vel_max, acc_max) -> tuple[float, float]:
+    """(v̄_s, ā_s) of the chord parameter s ∈ [0, 1] (``inf`` when the points coincide)."""
+    vs = as_ = math.inf
+    for a, b, v, c in zip(p0, p1, vel_max, acc_max, strict=True):
+        d = abs(float(b) - float(a))
+        if d > 0.0:
+            vs, as_ = min(vs, float(v) / d), min(as_, float(c) / d)
+    return vs, as_
+
+
+def min_duration(p0, p1, vel_max, acc_max, straight: bool = False) -> float:
+    """Minimum feasible rest-to-rest time from ``p0`` to ``p1`` (``inf`` if impossible);
+    ``straight``: on the chord (see the module docstring)."""
+    if straight:
+        vs, as_ = _scalar_bounds(p0, p1, vel_max, acc_max)
+        return 0.0 if math.isinf(vs) else axis_time(1.0, vs, as_)
     return max(
         axis_time(float(b) - float(a), float(v), float(c))
         for a, b, v, c in zip(p0, p1, vel_max, acc_max, strict=True)
@@ -76,15 +98,16 @@ class Primitive:
         return pos, vel, acc
 
 
-def rest_to_rest(p0, p1, vel_max, acc_max, duration: float | None = None) -> Primitive:
-    """The synchronised primitive from ``p0`` to ``p1``; ``duration`` (if given) must be at
-    least the minimum feasible time and stretches the motion (raises ``ValueError`` if the
-    motion is impossible or the duration too short)."""
+def rest_to_rest(p0, p1, vel_max, acc_max, duration: float | None = None,
+                 straight: bool = False) -> Primitive:
+    """The synchronised primitive from ``p0`` to ``p1`` (on the chord if ``straight``);
+    ``duration`` (if given) must be at least the minimum feasible time and stretches the
+    motion (raises ``ValueError`` if the motion is impossible or the duration too short)."""
     p0 = np.asarray(p0, dtype=float)
     p1 = np.asarray(p1, dtype=float)
     vmax = np.asarray(vel_max, dtype=float)
     amax = np.asarray(acc_max, dtype=float)
-    t_min = min_duration(p0, p1, vmax, amax)
+    t_min = min_duration(p0, p1, vmax, amax, straight)
     if math.isinf(t_min):
         raise ValueError(f"no motion from {p0.tolist()} to {p1.tolist()} within the bounds")
     T = t_min if duration is None else float(duration)
@@ -92,6 +115,13 @@ def rest_to_rest(p0, p1, vel_max, acc_max, duration: float | None = None) -> Pri
         raise ValueError(f"duration {T} s is below the minimum feasible time {t_min} s")
     acc = np.zeros(3)
     t_acc = np.zeros(3)
+    if straight:
+        vs, a = _scalar_bounds(p0, p1, vmax, amax)
+        if math.isinf(vs) or T <= 0.0:
+            return Primitive(p0, p1, T, acc, t_acc)
+        disc = max(a * a * T * T - 4.0 * a, 0.0)
+        vp = 2.0 * a / (a * T + math.sqrt(disc))  # peak of s', the root for distance 1
+        return Primitive(p0, p1, T, a * (p1 - p0), np.full(3, vp / a))
     for j in range(3):
         d = p1[j] - p0[j]
         if d == 0.0:

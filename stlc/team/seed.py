@@ -5,7 +5,9 @@ primitives (:mod:`stlc.team.primitives`) between region centres, on the dense gr
 ``t_k = k·Δt``, ``k = 0..N``, ``N = T_N/Δt``:
 
 * each leg lasts its minimum feasible time rounded up to whole steps (the primitive is
-  stretched to that duration, so every arrival and departure falls on a sample);
+  stretched to that duration, so every arrival and departure falls on a sample); a leg
+  whose direct primitive would come close to an obstacle detours through via points
+  (``stlc.team.paths``), each sub-leg rounded to whole steps on its own;
 * at a target the drone stays at the centre for ``n_ins + 1`` steps, at a refilling
   station (not the last one) for ``n_rs + 1`` steps: the ``n + 1`` samples the payload rule
   needs plus one sample of margin (``Visit`` spans exactly those steps);
@@ -45,7 +47,8 @@ from stlc.team import (
     centre,
     samples_for,
 )
-from stlc.team.primitives import min_duration, rest_to_rest
+from stlc.team.paths import leg_steps, router_for
+from stlc.team.primitives import rest_to_rest
 
 
 def _fly(sc: TeamScenario, dr: Drone, route: list[str], n: int, times: np.ndarray):
@@ -56,6 +59,7 @@ def _fly(sc: TeamScenario, dr: Drone, route: list[str], n: int, times: np.ndarra
     visits: list[Visit] = []
     n_ins = samples_for(sc.install_time, sc.step) + 1
     n_rs = samples_for(sc.refill_time, sc.step) + 1
+    router = router_for(sc)
     p = np.asarray(dr.start, dtype=float)
     pos[:] = p
     k = 0
@@ -67,11 +71,12 @@ def _fly(sc: TeamScenario, dr: Drone, route: list[str], n: int, times: np.ndarra
                             reason="route", subject=dr.name)
         kind, box = regions[name]
         c = centre(box)
-        t_min = min_duration(p, c, dr.vel_max, dr.acc_max)
-        if math.isinf(t_min):
+        path = router.path(p, c, dr.vel_max, dr.acc_max)
+        sub = leg_steps(path, dr.vel_max, dr.acc_max, sc.step)
+        if any(math.isinf(x) for x in sub):
             raise TeamError(f"{dr.name} cannot reach {name} within its bounds",
                             reason="unreachable", subject=dr.name)
-        steps = samples_for(t_min, sc.step)
+        steps = int(sum(sub))
         home = kind == "S" and i == last_station
         dwell = 0 if home else (n_ins if kind == "T" else n_rs)
         if k + steps + dwell > n:
@@ -79,10 +84,14 @@ def _fly(sc: TeamScenario, dr: Drone, route: list[str], n: int, times: np.ndarra
                 f"route of {dr.name} does not fit the horizon of {sc.horizon:g} s "
                 f"(reaching {name} takes until {(k + steps + dwell) * sc.step:.2f} s)",
                 reason="horizon", subject=dr.name)
-        if steps:
-            prim = rest_to_rest(p, c, dr.vel_max, dr.acc_max, duration=steps * sc.step)
-            pp, vv, aa = prim.sample(np.arange(steps + 1) * sc.step)
-            pos[k : k + steps + 1], vel[k : k + steps + 1], acc[k : k + steps + 1] = pp, vv, aa
+        kk = k
+        for a, b, m in zip(path[:-1], path[1:], sub, strict=True):
+            if m:
+                prim = rest_to_rest(a, b, dr.vel_max, dr.acc_max, duration=m * sc.step,
+                                    straight=len(path) > 2)
+                pp, vv, aa = prim.sample(np.arange(m + 1) * sc.step)
+                pos[kk : kk + m + 1], vel[kk : kk + m + 1], acc[kk : kk + m + 1] = pp, vv, aa
+            kk += m
         k += steps
         pos[k:] = c
         vel[k + 1 :] = 0.0

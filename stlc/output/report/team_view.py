@@ -10,7 +10,9 @@ routes, planned visits or payload events).  Otherwise it returns plain data for
   and per planned dwell (``Solution.visits``), with start and duration;
 * ``forward``: the forward speed v_for = hypot(v_x, v_y) of every drone against v*, with
   the mean speed and the cost Σ(1 − v_for/v*)² over its transit samples (outside its
-  payload events) — ``None`` when the mission states no forward speed;
+  payload events) — v* per drone from the mission's ``forward_speed`` or, without it, from
+  each drone's aerodynamic data (eq. 8, ``v_stars``); a drone without either gets no v*
+  line; ``None`` when no drone has a v*;
 * ``plans``: this plan beside each comparison ("MILP only" = the seed, "standard" = the
   plan without the forward-speed term), spec by spec (exact robustness, holds or not), with
   the closest approach of two drones and the peak forward speed of each plan.
@@ -109,9 +111,32 @@ def _transit(sol: Solution, v: str, t: np.ndarray) -> np.ndarray:
     return mask
 
 
+def v_stars(program: Program, mission: Mission, names: list[str]) -> dict[str, float]:
+    """v* per drone: the mission's ``forward_speed`` for every drone when it gives one, else
+    paper B eq. 8 from each drone's declared aerodynamic data (mass, rotors, disk area,
+    flat-plate area, induced factor, air density); a drone with neither has no v*."""
+    from stlc.team.energy import optimal_forward_speed
+
+    fs = mission.objective.forward_speed
+    if fs is not None and math.isfinite(fs) and fs > 0:
+        return dict.fromkeys(names, float(fs))
+    out = {}
+    for v in names:
+        veh = program.vehicles.get(v)
+        aero, mass = getattr(veh, "aero", None), getattr(veh, "mass", None)
+        if aero is not None and mass is not None:
+            try:
+                vs = optimal_forward_speed(mass, *aero)
+            except (TypeError, ValueError):  # incomplete or invalid data: no v* to show
+                continue
+            if math.isfinite(vs) and vs > 0:
+                out[v] = float(vs)
+    return out
+
+
 def _forward(program: Program, mission: Mission, sol: Solution, names: list[str]) -> dict | None:
-    v_star = mission.objective.forward_speed
-    if v_star is None or not math.isfinite(v_star) or v_star <= 0:
+    stars = v_stars(program, mission, names)
+    if not stars:
         return None
     t = np.asarray(sol.times, float)
     drones = []
@@ -121,20 +146,25 @@ def _forward(program: Program, mission: Mission, sol: Solution, names: list[str]
             continue
         veh = program.vehicles.get(v)
         vel_max = getattr(veh, "vel_max", None)
+        v_star = stars.get(v)
         # v* clamped to the largest horizontal speed the per-axis bounds allow (paper B)
-        target = min(v_star, math.hypot(vel_max[0], vel_max[1])) if vel_max else v_star
+        target = v_star
+        if v_star is not None and vel_max:
+            target = min(v_star, math.hypot(vel_max[0], vel_max[1]))
         transit = _transit(sol, v, t)
         moving = vf[transit]
-        cost = float(np.sum((1.0 - moving / target) ** 2)) if moving.size else None
+        cost = (float(np.sum((1.0 - moving / target) ** 2))
+                if moving.size and target is not None else None)
         comps = []
         for comp in sol.comparisons:
             cf = forward_speeds(comp.channels, v)
             if cf is not None and cf.size == t.size:
                 comps.append({"label": comp.label, "y": nums(cf)})
         drones.append({
-            "name": v, "color": drone_color(i), "y": nums(vf), "v_star": num(target),
-            "v_star_text": fmt(target, unit="m/s"),
-            "clamped": target < v_star, "comparisons": comps,
+            "name": v, "color": drone_color(i), "y": nums(vf),
+            "v_star": num(target) if target is not None else None,
+            "v_star_text": fmt(target, unit="m/s") if target is not None else "—",
+            "clamped": target is not None and target < v_star, "comparisons": comps,
             "mean_transit": num(moving.mean()) if moving.size else None,
             "mean_transit_text": fmt(moving.mean(), unit="m/s") if moving.size else "—",
             "peak_text": fmt(vf.max(), unit="m/s") if vf.size else "—",
@@ -143,7 +173,11 @@ def _forward(program: Program, mission: Mission, sol: Solution, names: list[str]
         })
     if not drones:
         return None
-    return {"t": nums(t), "v_star": num(v_star), "v_star_text": fmt(v_star, unit="m/s"),
+    common = set(stars.values())
+    v_all = common.pop() if len(common) == 1 and len(stars) == len(names) else None
+    return {"t": nums(t), "v_star": num(v_all) if v_all is not None else None,
+            "v_star_text": fmt(v_all, unit="m/s") if v_all is not None
+            else "per drone (paper B eq. 8; see the table)",
             "weight_text": fmt(mission.objective.forward_weight), "drones": drones}
 
 
