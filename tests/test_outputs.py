@@ -154,8 +154,15 @@ def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path)
     old = {name: f"previous {name}" for name in OWN}
     for name, text in old.items():
         (out / name).write_text(text)
-    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile",
-                          str(ROOT / "tests" / "missions" / "hexa_climb.stl"), "-o", str(out)],
+    # hexa_climb stretched to 8 s at 0.05 s: a solve that lasts many seconds after its
+    # first progress line (the 3 s original could finish before the signal arrived)
+    long = tmp_path / "hexa_long.stl"
+    long.write_text((ROOT / "tests" / "missions" / "hexa_climb.stl").read_text()
+                    .replace("horizon = 3 s", "horizon = 8 s")
+                    .replace("step = 0.1 s", "step = 0.05 s")
+                    .replace("always[0, 3]", "always[0, 8]")
+                    .replace("eventually[0, 2] always[0, 1]", "eventually[0, 7] always[0, 1]"))
+    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out)],
                          env=env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     seen = []
     for line in p.stderr:  # progress lines: interrupt inside IPOPT's iterations
