@@ -29,7 +29,6 @@ has ρ̃(P_κ) ≥ ``PLAN_MARGIN``; only if its plan misses κ, a second one add
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
@@ -39,6 +38,7 @@ import numpy as np
 from stlc import interrupt, vehicles
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
+    MUMPS,
     PLAN_MARGIN,
     STATUS_MAP,
     InverseData,
@@ -56,46 +56,15 @@ from stlc.semantics.timegrid import TimeGrid
 LAM_FACTOR = 3.0
 LAM_MAX = 300.0
 GUESS_LAM = 30.0
-GUESS_STEP = 0.5  # s: the kinematic guess's grid is at most this coarse
 FIRST_STAGE_ITER = 200
 STAGE_ITER = 300
 PATIENCE = 10**9  # stages end on IPOPT's own tests (or the iteration limit), not on ours
 MAX_LAM_STAGES = 4
-LAST_LAM = None
-
-
-def coarse_factor(grid: TimeGrid, step: float | None = None) -> int:
-    """The largest k dividing the grid's interval count with k·dt <= ``GUESS_STEP``."""
-    step = GUESS_STEP if step is None else step
-    N = grid.n_intervals
-    return max(k for k in range(1, N + 1) if N % k == 0 and k * grid.dt <= step + 1e-9) \
-        if grid.dt <= step else 1
-
-
-def refine_path(P: np.ndarray, V: np.ndarray, A: np.ndarray, k: int, dt: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A double-integrator path on a grid k times coarser, sampled exactly on the fine grid
-    (the acceleration is constant on each coarse interval)."""
-    if k == 1:
-        return P, V, A
-    tau = np.arange(k) * dt  # fine offsets inside one coarse interval
-    Pf = (P[:, :-1, None] + V[:, :-1, None] * tau + 0.5 * A[:, :, None] * tau**2)
-    Vf = V[:, :-1, None] + A[:, :, None] * tau
-    Af = np.repeat(A, k, axis=1)
-    d = P.shape[0]
-    return (np.hstack([Pf.reshape(d, -1), P[:, -1:]]), np.hstack([Vf.reshape(d, -1), V[:, -1:]]),
-            Af)
 
 
 def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGrid,
                     formula: ir.Formula) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N).  Solved on a
-    grid ``coarse_factor`` times coarser (steps of at most ``GUESS_STEP``) and sampled
-    exactly on the mission's grid: the guess only has to pick the corridor, and its NLP
-    build + solve shrink with the sample count."""
-    kf = coarse_factor(grid)
-    fine_dt = grid.dt
-    grid = TimeGrid(grid.dt * kf, grid.n_intervals // kf)
+    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N)."""
     n, N, dt = grid.n, grid.n_intervals, grid.dt
     names = list(mission.vehicles)
     keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
@@ -139,7 +108,8 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         solver = ca.nlpsol("guess", "ipopt", {"x": W, "f": obj - low.root, "g": G},
                            {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
-                            "ipopt.mu_strategy": "adaptive"})
+                            "ipopt.mu_strategy": "adaptive",
+                            **{f"ipopt.{k}": v for k, v in MUMPS.items()}})
         num_ch = {}
         for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
             for i, a in enumerate("xyz"):
@@ -151,8 +121,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
                      lbg=lbg, ubg=ubg)
         interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
         sol_w = np.asarray(sol["x"]).ravel()[: w.numel()]
-    return {name: refine_path(*pva, kf, fine_dt)
-            for name, pva in _unpack(sol_w, names, n, N).items()}
+    return _unpack(sol_w, names, n, N)
 
 
 def _unpack(w: np.ndarray, names: list[str], n: int, N: int
@@ -187,8 +156,7 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
 
 
 def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
-           label: str, limit: int, patience: int = 10**9, most_robust: bool = True,
-           lam0: tuple[np.ndarray, np.ndarray] | None = None
+           label: str, limit: int, patience: int = 10**9, most_robust: bool = True
            ) -> tuple[np.ndarray, dict, float, float]:
     """One IPOPT solve.  With ``most_robust`` the result is the dynamically feasible iterate
     with the best exact robustness (IPOPT's last iterate when that is as good); otherwise
@@ -204,12 +172,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     progress.patience = patience
     progress.mode = "robust" if most_robust else "objective"
     t0 = time.perf_counter()
-    args = dict(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
-    if lam0 is not None:
-        args["lam_x0"], args["lam_g0"] = lam0
-    sol = prob.solver(**args)
-    global LAST_LAM
-    LAST_LAM = (np.asarray(sol["lam_x"]).ravel(), np.asarray(sol["lam_g"]).ravel())
+    sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
     interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
     dt = time.perf_counter() - t0
     x = np.asarray(sol["x"]).ravel()
@@ -304,8 +267,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
                                      f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
-                                     most_robust=False,
-                                     lam0=LAST_LAM if os.environ.get("STLC_WARM") else None)
+                                     most_robust=False)
         st = record("energy", lam_e, w_e, stats, f_, dt_)
         if st.exact < kappa:
             w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e,
