@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
+from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
@@ -44,6 +45,9 @@ INPUT_REG = 1e-4
 #: the energy stage keeps the planner's smooth robustness ρ̃(P_κ(f)) >= PLAN_MARGIN (> 0, so
 #: that ρ(f) >= κ holds with IPOPT's constraint tolerance to spare)
 PLAN_MARGIN = 1e-3
+#: the energy stage keeps the robust plan's branch of every disjunction of predicates
+#: (``choices``): sound, and it removes the smooth max's negative curvature
+FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
 LAM_SCALING = False  # λ·(1 + ln n) per n-ary operator (smooth_casadi): measured worse
 #: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
 #: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
@@ -156,6 +160,7 @@ class NlpProblem:
     progress: Progress
     lowered: LoweredRobustness
     build_s: float
+    inv: InverseData | None = None  # set by build: the choice parameters live there
 
 
 @dataclass
@@ -165,6 +170,8 @@ class InverseData:
     aux_slice: slice
     formula: ir.Formula  # the normalised requirement, as the user wrote it
     planned: ir.Formula | None = None  # what the NLP optimises: casadi_expr.planner_form
+    choice_nodes: list = field(default_factory=list)  # choices.choice_form's disjunctions
+    choice_values: dict = field(default_factory=dict)  # their parameter rows (choices.*)
 
 
 @dataclass
@@ -228,7 +235,13 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     formula = nnf.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     planned = planner_form(formula, mission.threshold, program.params)
-    lowered = lower_robustness(planned, grid, chans, program.params, lam,
+    fixed, nodes = choices.choice_form(planned) if FIX_CHOICES else (planned, [])
+    extra = []
+    for name in choices.signals(nodes) if nodes else []:
+        extra.append(ca.SX.sym(name, 1 if name == choices.MIX else n))
+        chans[name] = ca.repmat(extra[-1], 1, n) if name == choices.MIX else extra[-1].T
+    p = ca.vertcat(p, *extra)
+    lowered = lower_robustness(fixed, grid, chans, program.params, lam,
                                method=mission.smoothing.method, lam_scaling=LAM_SCALING)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
@@ -289,7 +302,9 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
                       time.perf_counter() - t0)
-    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned)
+    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned,
+                      nodes, choices.written(nodes, n) if nodes else {})
+    prob.inv = inv
     params = dict(program.params)
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
@@ -316,7 +331,17 @@ def trajectory_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray
         Up = np.hstack([U, U[:, -1:]])
         for i, name in enumerate(L.vehicle.input_channels()):
             out[name] = Up[i].copy()
+    out.update(inv.choice_values)
     return out
+
+
+def choice_params(inv: InverseData) -> list[float]:
+    """The NLP parameters after (λ, w_ρ, w_E, w_F): mix, then the branch rows."""
+    v = inv.choice_values
+    if not v:
+        return []
+    return [float(v[choices.MIX][0])] + [x for name in choices.signals(inv.choice_nodes)[1:]
+                                           for x in v[name].tolist()]
 
 
 def state_matrix(w: np.ndarray, L: Layout, n: int) -> np.ndarray:

@@ -36,6 +36,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import interrupt, vehicles
+from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
     MUMPS,
@@ -45,6 +46,7 @@ from stlc.backends.casadi_nlp import (
     NlpProblem,
     RawResult,
     Stage,
+    choice_params,
     exact_robustness,
     fill_aux,
     trajectory_channels,
@@ -164,6 +166,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
+    p = list(p) + choice_params(prob.inv)
     progress = prob.progress
     progress.p = np.array(p)
     progress.reset()
@@ -265,6 +268,9 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
                 _planner_smooth(prob, inv, best, params, lam_e) < PLAN_MARGIN:
             lam_e *= LAM_FACTOR
         p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
+        if inv.choice_nodes:  # keep the robust plan's branch of every disjunction
+            inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(best, inv),
+                                               params, inv.grid.n)
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
                                      f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
                                      most_robust=False)
@@ -276,6 +282,8 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
         if st.exact >= kappa:
             result.w, result.lam = w_e, lam_e
+        inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
+            if inv.choice_nodes else {}
     for name, variant in mission.options.get("compare", []):
         if variant is None:
             continue
