@@ -331,8 +331,13 @@ def trajectory_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray
         Up = np.hstack([U, U[:, -1:]])
         for i, name in enumerate(L.vehicle.input_channels()):
             out[name] = Up[i].copy()
-    out.update(inv.choice_values)
     return out
+
+
+def lowering_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray]:
+    """``trajectory_channels`` plus the current choice parameters (what the lowered
+    robustness reads; never part of a plan's channels)."""
+    return {**trajectory_channels(w, inv), **inv.choice_values}
 
 
 def choice_params(inv: InverseData) -> list[float]:
@@ -359,7 +364,7 @@ def fill_aux(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict[str
              lam: float) -> np.ndarray:
     """Set the aux variables of ``w`` to the un-lifted smooth values of its trajectory."""
     w = np.array(w, dtype=float)
-    aux, _ = prob.lowered.init_values(trajectory_channels(w, inv), params, lam)
+    aux, _ = prob.lowered.init_values(lowering_channels(w, inv), params, lam)
     w[inv.aux_slice] = np.asarray(aux).ravel()
     return w
 

@@ -49,6 +49,7 @@ from stlc.backends.casadi_nlp import (
     choice_params,
     exact_robustness,
     fill_aux,
+    lowering_channels,
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
@@ -203,7 +204,7 @@ def _regularizations(stats: dict) -> int:
 def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
                     params: dict[str, float], lam: float) -> float:
     """Un-lifted smooth robustness of the planner form (what the NLP sees) at ``w``."""
-    return prob.lowered.init_values(trajectory_channels(w, inv), params, lam)[1]
+    return prob.lowered.init_values(lowering_channels(w, inv), params, lam)[1]
 
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
