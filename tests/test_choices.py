@@ -1,10 +1,11 @@
 """Fixed disjunction choices (``stlc.backends.choices``) against the exact monitor.
 
-The rewritten predicate of an ``or`` of predicates is ``mix·max(a) + (1−mix)·Σ c_i a_i``.
-By hand: with mix = 1 it is the max of the branches (the formula as written); with mix = 0
-and the per-sample argmax as c it is again the max; with any other one-hot c it is a branch
-value, never above the max — so the exact robustness of the fixed form is ≤ that of the
-formula, with equality for the argmax choice.
+Each branch a_i of an ``or`` of predicates becomes ``a_i − (1−mix)(1−c_i)·OFF``.  By hand:
+with mix = 1 the branches are as written; with mix = 0 the ``or`` is max(chosen branch,
+others − OFF), which is the chosen branch (margins here are far below OFF): for the
+per-sample argmax choice that is the max again, for any other one-hot choice a branch value,
+never above the max — so the exact robustness of the fixed form is ≤ that of the formula,
+with equality for the argmax choice.
 """
 
 from __future__ import annotations
@@ -37,7 +38,9 @@ def trace(seed: int) -> dict[str, np.ndarray]:
 def test_rewrites_each_disjunction_of_predicates():
     fixed, nodes = choices.choice_form(formula())
     assert [len(ex) for ex in nodes] == [3, 2]
-    assert not any(isinstance(g, ir.Or) for g in ir.nodes(fixed))
+    ors = [g for g in ir.nodes(fixed) if isinstance(g, ir.Or)]
+    assert [len(g.args) for g in ors] == [3, 2]
+    assert all(isinstance(a, ir.Pred) for g in ors for a in g.args)
     assert choices.signals(nodes) == [choices.MIX] + [choices.name(0, i) for i in range(3)] \
         + [choices.name(1, i) for i in range(2)]
 

@@ -19,7 +19,6 @@ sample, the branch with the largest margin on a given plan.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from functools import reduce
 
 import numpy as np
 
@@ -27,6 +26,7 @@ from stlc.semantics import ir
 
 MIX = "__mix"  #: 1: the written disjunctions, 0: the fixed branches
 CHOICE = "__choice"  #: one-hot branch rows ``CHOICE.<node>.<branch>``
+OFF = 1e3  #: what a branch that is not chosen loses (margins are O(1) in the planner form)
 
 
 def name(j: int, i: int) -> str:
@@ -42,14 +42,11 @@ def choice_form(f: ir.Formula) -> tuple[ir.Formula, list[tuple[ir.Expr, ...]]]:
         match g:
             case ir.Or(args, span) if len(args) > 1 and all(isinstance(a, ir.Pred) for a in args):
                 j = len(nodes)
-                exprs = tuple(a.expr for a in args)
-                nodes.append(exprs)
-                mix = ir.Sig(MIX)
-                chosen = reduce(lambda x, y: ir.Bin("+", x, y), (
-                    ir.Bin("*", ir.Sig(name(j, i)), e) for i, e in enumerate(exprs)))
-                blend = ir.Bin("+", ir.Bin("*", mix, ir.Call("max", exprs)),
-                               ir.Bin("*", ir.Bin("-", ir.Const(1.0), mix), chosen))
-                return ir.Pred(blend, " or ".join(a.label for a in args), span)
+                nodes.append(tuple(a.expr for a in args))
+                off = ir.Bin("-", ir.Const(1.0), ir.Sig(MIX))  # 0 as written, 1 when fixed
+                return ir.Or(tuple(ir.Pred(ir.Bin("+", a.expr, ir.Bin("*", ir.Bin("*", off, ir.Bin(
+                    "-", ir.Sig(name(j, i)), ir.Const(1.0))), ir.Const(OFF))), a.label, a.span)
+                    for i, a in enumerate(args)), span)
             case ir.And(args, span) | ir.Or(args, span):
                 return type(g)(tuple(go(a) for a in args), span)
             case ir.Always(lo, hi, a, span) | ir.Eventually(lo, hi, a, span):
