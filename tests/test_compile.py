@@ -279,7 +279,7 @@ def test_multirotor_plan_resimulates_at_full_step(tmp_path):
                        interval_defects(trace, program.vehicles["uav1"], "ivp"))
     assert d["position"] < 1e-3
     assert d["velocity"] < 1e-3
-    assert d["forces"] < 1e-6  # ξ̇ = u is integrated exactly
+    assert d["forces"] < 2e-6  # ξ̇ = u is integrated exactly: IPOPT's constr_viol_tol
 
 
 def test_multirotor_plan_resimulates_at_half_second(handover_plans, handover_program,
@@ -288,7 +288,7 @@ def test_multirotor_plan_resimulates_at_half_second(handover_plans, handover_pro
     trace = plan_trace(sol, tmp_path)
     d = report_defects("handover_front, 0.5 s, scipy DOP853",
                        interval_defects(trace, handover_program.vehicles["uav1"], "ivp"))
-    assert d["forces"] < 1e-6
+    assert d["forces"] < 2e-6  # FEASIBLE_DEFECT (IPOPT's constr_viol_tol) plus the CSV's digits
     assert d["position"] < 1e-3
 
 

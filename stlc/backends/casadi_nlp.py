@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
+from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
@@ -44,6 +45,9 @@ INPUT_REG = 1e-4
 #: the energy stage keeps the planner's smooth robustness ρ̃(P_κ(f)) >= PLAN_MARGIN (> 0, so
 #: that ρ(f) >= κ holds with IPOPT's constraint tolerance to spare)
 PLAN_MARGIN = 1e-3
+#: the energy stage keeps the robust plan's branch of every disjunction of predicates
+#: (``choices``): sound, and it removes the smooth max's negative curvature
+FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
 LAM_SCALING = False  # λ·(1 + ln n) per n-ary operator (smooth_casadi): measured worse
 #: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
 #: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
@@ -89,18 +93,28 @@ def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
         r = (v.force_max - v.force_min) / ENVELOPE_DFORCE_TIME
         u_lo[:], u_hi[:] = -r, r
     return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
+
+
+#: MUMPS: AMD ordering, no matrix scaling.  Its default (automatic ordering, scaling
+#: recomputed at every factorisation) cost 120 ms per iteration on the handover's ~10 k KKT
+#: system; this costs 75 ms (40 iterations of the λ = 10 stage: 4.8 s -> 3.0 s CPU, the
+#: same iterates to 3 digits)
+MUMPS = {"mumps_pivot_order": 0, "mumps_scaling": 0, "mumps_permuting_scaling": 0}
 IPOPT_DEFAULTS = {
     "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
     # IPOPT's acceptable test also ends a stage whose objective has stopped moving
-    # (relative change < 1e-4 for 5 iterations): the λ = 10 robustness stage spent its last
-    # ~70 iterations changing ρ̃ in the 4th digit
-    "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-2, "ipopt.acceptable_iter": 5,
+    # (relative change < 1e-4 for 5 iterations).  tol 1e-4 on the scaled KKT error: ρ̃ and
+    # E/n are O(1), margins are in units of a box's half-width; with tol 1e-6 IPOPT ran two
+    # more barrier phases (μ = 1e-7, 1e-9) in which the plan wandered without improving
+    "ipopt.tol": 1e-4, "ipopt.acceptable_tol": 1e-2, "ipopt.acceptable_iter": 5,
     "ipopt.acceptable_obj_change_tol": 1e-4,
-    # a plan must meet the dynamics to FEASIBLE_DEFECT: IPOPT's own tests must check that
-    "ipopt.constr_viol_tol": 1e-7, "ipopt.acceptable_constr_viol_tol": 1e-7,
+    # a plan must meet the dynamics to FEASIBLE_DEFECT, and IPOPT's own tests check exactly
+    # that (1e-7 made the energy stage chase the last digit of the defect: 150 → 23 iterations)
+    "ipopt.constr_viol_tol": FEASIBLE_DEFECT, "ipopt.acceptable_constr_viol_tol": FEASIBLE_DEFECT,
     # monotone μ from a small start: every stage is warm-started near a solution; adaptive μ
     # fell to 1e-11 at once and the energy stage wandered (252 vs 150 iterations measured)
     "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-4, "ipopt.linear_solver": "mumps",
+    **{f"ipopt.{k}": v for k, v in MUMPS.items()},
 }
 #: IPOPT's return statuses mapped to the shared solver status
 #: IPOPT's return statuses → the shared ``SolverStatus`` (every backend that runs IPOPT uses
@@ -146,6 +160,7 @@ class NlpProblem:
     progress: Progress
     lowered: LoweredRobustness
     build_s: float
+    inv: InverseData | None = None  # set by build: the choice parameters live there
 
 
 @dataclass
@@ -155,6 +170,8 @@ class InverseData:
     aux_slice: slice
     formula: ir.Formula  # the normalised requirement, as the user wrote it
     planned: ir.Formula | None = None  # what the NLP optimises: casadi_expr.planner_form
+    choice_nodes: list = field(default_factory=list)  # choices.choice_form's disjunctions
+    choice_values: dict = field(default_factory=dict)  # their parameter rows (choices.*)
 
 
 @dataclass
@@ -218,7 +235,13 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     formula = nnf.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     planned = planner_form(formula, mission.threshold, program.params)
-    lowered = lower_robustness(planned, grid, chans, program.params, lam,
+    fixed, nodes = choices.choice_form(planned) if FIX_CHOICES else (planned, [])
+    extra = []
+    for name in choices.signals(nodes) if nodes else []:
+        extra.append(ca.SX.sym(name, 1 if name == choices.MIX else n))
+        chans[name] = ca.repmat(extra[-1], 1, n) if name == choices.MIX else extra[-1].T
+    p = ca.vertcat(p, *extra)
+    lowered = lower_robustness(fixed, grid, chans, program.params, lam,
                                method=mission.smoothing.method, lam_scaling=LAM_SCALING)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
@@ -279,7 +302,9 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
                       time.perf_counter() - t0)
-    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned)
+    inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned,
+                      nodes, choices.written(nodes, n) if nodes else {})
+    prob.inv = inv
     params = dict(program.params)
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
@@ -309,6 +334,21 @@ def trajectory_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray
     return out
 
 
+def lowering_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray]:
+    """``trajectory_channels`` plus the current choice parameters (what the lowered
+    robustness reads; never part of a plan's channels)."""
+    return {**trajectory_channels(w, inv), **inv.choice_values}
+
+
+def choice_params(inv: InverseData) -> list[float]:
+    """The NLP parameters after (λ, w_ρ, w_E, w_F): mix, then the branch rows."""
+    v = inv.choice_values
+    if not v:
+        return []
+    return [float(v[choices.MIX][0])] + [x for name in choices.signals(inv.choice_nodes)[1:]
+                                           for x in v[name].tolist()]
+
+
 def state_matrix(w: np.ndarray, L: Layout, n: int) -> np.ndarray:
     return np.asarray(w[L.x_slice]).reshape(n, L.nx)
 
@@ -324,7 +364,7 @@ def fill_aux(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict[str
              lam: float) -> np.ndarray:
     """Set the aux variables of ``w`` to the un-lifted smooth values of its trajectory."""
     w = np.array(w, dtype=float)
-    aux, _ = prob.lowered.init_values(trajectory_channels(w, inv), params, lam)
+    aux, _ = prob.lowered.init_values(lowering_channels(w, inv), params, lam)
     w[inv.aux_slice] = np.asarray(aux).ravel()
     return w
 

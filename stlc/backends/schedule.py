@@ -36,16 +36,20 @@ import casadi as ca
 import numpy as np
 
 from stlc import interrupt, vehicles
+from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
+    MUMPS,
     PLAN_MARGIN,
     STATUS_MAP,
     InverseData,
     NlpProblem,
     RawResult,
     Stage,
+    choice_params,
     exact_robustness,
     fill_aux,
+    lowering_channels,
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
@@ -107,7 +111,8 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         solver = ca.nlpsol("guess", "ipopt", {"x": W, "f": obj - low.root, "g": G},
                            {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
-                            "ipopt.mu_strategy": "adaptive"})
+                            "ipopt.mu_strategy": "adaptive",
+                            **{f"ipopt.{k}": v for k, v in MUMPS.items()}})
         num_ch = {}
         for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
             for i, a in enumerate("xyz"):
@@ -162,6 +167,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
+    p = list(p) + choice_params(prob.inv)
     progress = prob.progress
     progress.p = np.array(p)
     progress.reset()
@@ -198,7 +204,7 @@ def _regularizations(stats: dict) -> int:
 def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
                     params: dict[str, float], lam: float) -> float:
     """Un-lifted smooth robustness of the planner form (what the NLP sees) at ``w``."""
-    return prob.lowered.init_values(trajectory_channels(w, inv), params, lam)[1]
+    return prob.lowered.init_values(lowering_channels(w, inv), params, lam)[1]
 
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
@@ -263,6 +269,9 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
                 _planner_smooth(prob, inv, best, params, lam_e) < PLAN_MARGIN:
             lam_e *= LAM_FACTOR
         p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
+        if inv.choice_nodes:  # keep the robust plan's branch of every disjunction
+            inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(best, inv),
+                                               params, inv.grid.n)
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
                                      f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
                                      most_robust=False)
@@ -274,6 +283,8 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
         if st.exact >= kappa:
             result.w, result.lam = w_e, lam_e
+        inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
+            if inv.choice_nodes else {}
     for name, variant in mission.options.get("compare", []):
         if variant is None:
             continue
