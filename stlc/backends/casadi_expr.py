@@ -394,14 +394,6 @@ def planner_form(f: ir.Formula, kappa: float = 0.0,
                 new, s = planner_expr(expr, kappa)
                 s = (box.get(g, s) or 1.0) if SCALE_MARGINS else 1.0
                 return ir.Pred(new if s == 1.0 else ir.Bin("/", new, ir.Const(s)), label, span)
-            case ir.And(args, span) | ir.Or(args, span):
-                return type(g)(tuple(go(a) for a in args), span)
-            case ir.Always(lo, hi, a, span) | ir.Eventually(lo, hi, a, span):
-                return type(g)(lo, hi, go(a), span)
-            case ir.Until(lo, hi, a, b, span) | ir.Release(lo, hi, a, b, span):
-                return type(g)(lo, hi, go(a), go(b), span)
-            case ir.Next(a, span):
-                return ir.Next(go(a), span)
-        return g
+        return ir.map_children(g, go)
 
     return go(f)

@@ -47,15 +47,7 @@ def choice_form(f: ir.Formula) -> tuple[ir.Formula, list[tuple[ir.Expr, ...]]]:
                 return ir.Or(tuple(ir.Pred(ir.Bin("+", a.expr, ir.Bin("*", ir.Bin("*", off, ir.Bin(
                     "-", ir.Sig(name(j, i)), ir.Const(1.0))), ir.Const(OFF))), a.label, a.span)
                     for i, a in enumerate(args)), span)
-            case ir.And(args, span) | ir.Or(args, span):
-                return type(g)(tuple(go(a) for a in args), span)
-            case ir.Always(lo, hi, a, span) | ir.Eventually(lo, hi, a, span):
-                return type(g)(lo, hi, go(a), span)
-            case ir.Until(lo, hi, a, b, span) | ir.Release(lo, hi, a, b, span):
-                return type(g)(lo, hi, go(a), go(b), span)
-            case ir.Next(a, span):
-                return ir.Next(go(a), span)
-        return g
+        return ir.map_children(g, go)
 
     return go(f), nodes
 

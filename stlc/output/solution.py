@@ -130,13 +130,19 @@ class Solution:
         return strict_dumps(self.to_json_dict(), indent=2)
 
     def trajectory_csv(self) -> str:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        names = list(self.channels)
-        w.writerow(["t", *names])
-        for k, t in enumerate(self.times):
-            w.writerow([f"{t:.6g}", *(f"{self.channels[c][k]:.9g}" for c in names)])
-        return buf.getvalue()
+        return channels_csv(self.times, self.channels)
+
+
+def channels_csv(times, channels: dict[str, np.ndarray]) -> str:
+    """A trace as CSV: ``t`` and one column per channel (``trajectory.csv``,
+    ``executed.csv``)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    names = list(channels)
+    w.writerow(["t", *names])
+    for k, t in enumerate(times):
+        w.writerow([f"{t:.6g}", *(f"{channels[c][k]:.9g}" for c in names)])
+    return buf.getvalue()
 
 
 def _event(e) -> dict:

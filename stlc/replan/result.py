@@ -7,13 +7,11 @@ nothing downstream re-derives what the simulation knew.
 
 from __future__ import annotations
 
-import csv
-import io
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from stlc.output.solution import json_number, strict_dumps
+from stlc.output.solution import channels_csv, json_number, strict_dumps
 
 
 @dataclass
@@ -109,10 +107,4 @@ class SimulationResult:
         return strict_dumps(self.to_json_dict(), indent=2)
 
     def executed_csv(self) -> str:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        names = list(self.executed)
-        w.writerow(["t", *names])
-        for k, t in enumerate(self.times):
-            w.writerow([f"{t:.6g}", *(f"{self.executed[c][k]:.9g}" for c in names)])
-        return buf.getvalue()
+        return channels_csv(self.times, self.executed)

@@ -9,9 +9,8 @@ the exact robustness of every named spec on the executed trajectory; then the me
 the failure times.  The machine's load average is printed: wall times on a shared machine
 are inflated, CPU times less so.
 
-Defaults: ``specs/bird_diverter_2x7.stl`` when it declares the backup ``uav3``, otherwise
-``tests/missions/bird_diverter_2x7_backup.stl`` (the same file with ``uav3`` added), uav1
-failing at several times that leave pending targets, T_rep = 10 s.
+Defaults: ``specs/bird_diverter_2x7.stl`` (it declares the backup ``uav3``), uav1 failing
+at several times that leave pending targets, T_rep = 10 s.
 """
 
 from __future__ import annotations
@@ -23,17 +22,6 @@ import sys
 import time
 
 SPEC = "specs/bird_diverter_2x7.stl"
-COPY = "tests/missions/bird_diverter_2x7_backup.stl"
-
-
-def _default_file() -> str:
-    try:
-        with open(SPEC, encoding="utf-8") as fh:
-            if "vehicle uav3" in fh.read():
-                return SPEC
-    except OSError:
-        pass
-    return COPY
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--energy", action="store_true",
                     help="add the forward-speed term (eq. 9) to the backup's refinement")
     args = ap.parse_args(argv)
-    path = args.file or _default_file()
+    path = args.file or SPEC
     program = pipeline.load(path).program
     t0, c0 = time.perf_counter(), time.process_time()
     problem, sol = pipeline.plan(program, program.missions[args.mission])

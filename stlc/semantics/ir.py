@@ -273,6 +273,23 @@ def children(f: Formula) -> tuple[Formula, ...]:
     raise TypeError(f"not a formula node: {f!r}")
 
 
+def map_children(f: Formula, go) -> Formula:
+    """``f`` with ``go`` applied to each direct sub-formula (a leaf is returned as it is):
+    the recursion step of a formula rewrite that changes only some node types."""
+    match f:
+        case Not(a, span) | Next(a, span):
+            return type(f)(go(a), span)
+        case And(args, span) | Or(args, span):
+            return type(f)(tuple(go(a) for a in args), span)
+        case Always(lo, hi, a, span) | Eventually(lo, hi, a, span):
+            return type(f)(lo, hi, go(a), span)
+        case Until(lo, hi, a, b, span) | Release(lo, hi, a, b, span):
+            return type(f)(lo, hi, go(a), go(b), span)
+        case Implies(a, b, span):
+            return Implies(go(a), go(b), span)
+    return f
+
+
 def horizon(f: Formula, dt: float) -> float:
     """How far into the future (seconds) the formula looks from its evaluation time.
 
