@@ -148,6 +148,11 @@ def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
     sol.timing["risk_s"] = time.perf_counter() - t0
 
 
+def mission_span(path: str, m: model.Mission) -> Span:
+    """Where diagnostics about a mission point: its declaration, else the file's start."""
+    return m.span if m.span.known else Span(path, 1, 1, 1, 2)
+
+
 def select_missions(path: str, program: model.Program, name: str | None) -> list:
     if name is not None:
         if name not in program.missions:
@@ -179,7 +184,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     from stlc.output.directory import preflight
 
     for m in missions:  # before any solve: can the outputs be written at all?
-        span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
+        span = mission_span(path, m)
         if out == "":  # not "the current directory" (nor `-o ""` + mission name)
             preflight(out, span)
         preflight(outdirs[m.name], span)
@@ -232,7 +237,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     from stlc.output.solution import strict
 
     target = os.path.join(outdir, "risk.json")
-    with staged(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2),
+    with staged(outdir, mission_span(path, m),
                 complete=False) as tmp:
         with open(os.path.join(tmp, "risk.json"), "w") as fh:
             json.dump(strict(risk_json), fh, indent=2, allow_nan=False)
@@ -253,9 +258,10 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
     """The events of ``stlc simulate``: those given on the command line (``--disturb``,
     ``--fail``) replace the file's ``simulate`` block; each is checked like the file's
     (reported at the mission's name, exit 1)."""
+    from stlc.backends.team_backend import reads_payload
     from stlc.semantics.check.events import event_problems
 
-    span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
+    span = mission_span(path, m)
     cli = disturbances or failures
     dist = list(disturbances or []) if cli else list(m.simulate.disturbances if m.simulate else ())
     fails = list(failures or []) if cli else list(m.simulate.failures if m.simulate else ())
@@ -275,7 +281,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
     elif dist and fails:
         diags.append(Diagnostic("STL401", "a simulation has disturbances or a failure, not "
                                 "both", span, "simulate them one at a time"))
-    elif fails and not _reads_payload(m):
+    elif fails and not reads_payload(m.requirement):
         diags.append(Diagnostic("STL401", f"a backup-drone takeover needs a team mission "
                                 f"with payloads (paper B); `{m.name}` has none", span,
                                 "simulate disturbances on this mission instead"))
@@ -303,10 +309,6 @@ def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfi
                                     "`safety`; keep only those")]) from None
 
 
-def _reads_payload(m: model.Mission) -> bool:
-    return any(s.endswith(".payload") for s in ir.signals(m.requirement))
-
-
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
                   quiet: bool = False) -> int:
@@ -330,7 +332,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     m = missions[0]
     dist, fails = simulation_events(path, program, m, disturbances, failures)
     outdir = out if out is not None else os.path.join("reports", m.name)
-    preflight(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2))
+    preflight(outdir, mission_span(path, m))
     cfg = m.replan or model.ReplanConfig()
     if dist:
         _check_kept(program, m, cfg)

@@ -35,9 +35,14 @@ _CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
                      functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}))
 
 
+def reads_payload(requirement: ir.Formula) -> bool:
+    """The requirement reads a drone's payload: a team mission (paper B)."""
+    return any(s.endswith(".payload") for s in ir.signals(requirement))
+
+
 def is_team_mission(problem: PlanningProblem) -> bool:
     """A mission whose requirement reads a payload is planned by the team chain."""
-    return any(s.endswith(".payload") for s in ir.signals(problem.requirement))
+    return reads_payload(problem.requirement)
 
 
 def team_scenario(problem: PlanningProblem):

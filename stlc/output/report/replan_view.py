@@ -93,7 +93,7 @@ def replan(program: Program, mission: Mission, solution: Solution, sim) -> dict 
             d = np.linalg.norm(np.array(a, float) - np.array(b, float), axis=0)
             series.append({"vehicle": v, "color": drone_color(i), "d": nums(d)})
         deviation = {"t": nums(sim.times), "series": series,
-                     "zeta": num(getattr(sim, "zeta", None) or _zeta(mission)),
+                     "zeta": num(_zeta(mission)),
                      "events": [m["t"] for m in markers]}
     solves = [e.solve_s for e in sim.triggered if e.solve_s is not None]
     return {
