@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
-from stlc.backends import choices
+from stlc.backends import choices, derivatives
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
@@ -116,7 +116,6 @@ IPOPT_DEFAULTS = {
     "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-4, "ipopt.linear_solver": "mumps",
     **{f"ipopt.{k}": v for k, v in MUMPS.items()},
 }
-#: IPOPT's return statuses mapped to the shared solver status
 #: IPOPT's return statuses → the shared ``SolverStatus`` (every backend that runs IPOPT uses
 #: this map; the only user stop is the schedule's iteration limit, hence MAX_ITER)
 STATUS_MAP = {
@@ -298,6 +297,8 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     root_fn = ca.Function("root", [w, p], [lowered.root])
     progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)
     opts["iteration_callback"] = progress
+    opts.update(derivatives.nlpsol_options(w, p, obj, g, layouts, grid.dt, integrator,
+                                           substeps(grid.dt), n_dyn))
     solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
