@@ -91,6 +91,16 @@ class Backend:
     def solve(self, lowered: Any, problem: PlanningProblem) -> Any:
         raise NotImplementedError
 
+    #: does ``lower`` read ``problem.seed``?  If not, ``run_chain`` lowers this backend while
+    #: the one before it solves (``start``)
+    lower_needs_seed: ClassVar[bool] = True
+
+    def start(self, lowered: Any, problem: PlanningProblem) -> Callable[[], Any]:
+        """Begin ``solve``; the returned function waits for its result.  By default the solve
+        runs now; a backend that can solve apart (``stlc.backends.apart``) overrides this."""
+        raw = self.solve(lowered, problem)
+        return lambda: raw
+
     def invert(self, raw: Any, inverse: Any, problem: PlanningProblem) -> Solution:
         raise NotImplementedError
 
@@ -146,15 +156,20 @@ Progress = Callable[[str], None]
 
 def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solution, list]:
     """Run ``chain`` in order, each backend seeded with the previous ``Solution``.  Every
-    backend's ``accepts`` runs before any work; returns the last Solution and all of them."""
+    backend's ``accepts`` runs before any work; a backend whose lowering needs no seed is
+    lowered while the previous one solves.  Returns the last Solution and all of them."""
     diags = [d for b in chain for d in b.accepts(problem)]
     if diags:
         raise StlcError(diags)
     sols: list[Solution] = []
     p = problem
-    for b in chain:
-        lowered, inverse = b.lower(p)
-        raw = b.solve(lowered, p)
+    early: dict[int, tuple[Any, Any]] = {}
+    for i, b in enumerate(chain):
+        lowered, inverse = early.pop(i) if i in early else b.lower(p)
+        wait = b.start(lowered, p)
+        if i + 1 < len(chain) and not chain[i + 1].lower_needs_seed:
+            early[i + 1] = chain[i + 1].lower(p)  # while ``b`` solves apart
+        raw = wait()
         sol = b.invert(raw, inverse, p)
         sols.append(sol)
         p = p.with_seed(sol)

@@ -1,0 +1,67 @@
+"""``stlc.backends.apart``: a solve in a forked child gives the same result as in-process,
+falls back to in-process when the child fails, and stops at once on Ctrl-C."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from stlc import interrupt
+from stlc.backends import apart
+
+PARENT = os.getpid()
+
+
+def _square_sum(n: int) -> tuple[int, np.ndarray]:
+    a = np.arange(n, dtype=float)
+    return os.getpid(), a * a
+
+
+def test_the_child_computes_the_result():
+    wait = apart.start(_square_sum, 1000)
+    (pid, value), cpu = wait()
+    assert pid != PARENT  # it really ran apart
+    assert np.array_equal(value, np.arange(1000.0) ** 2)
+    assert cpu >= 0.0
+
+
+def _fails_in_child() -> int:
+    if os.getpid() != PARENT:
+        raise RuntimeError("only in the child")
+    return 42
+
+
+def _dies_in_child() -> int:
+    if os.getpid() != PARENT:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return 7
+
+
+@pytest.mark.parametrize(("fn", "expected"), [(_fails_in_child, 42), (_dies_in_child, 7)])
+def test_a_failed_child_falls_back_to_in_process(fn, expected):
+    value, _ = apart.start(fn)()
+    assert value == expected
+
+
+def test_without_fork_the_waiter_computes_in_process(monkeypatch):
+    monkeypatch.setenv("STLC_NO_FORK", "1")
+    (pid, value), _ = apart.start(_square_sum, 10)()
+    assert pid == PARENT and value[3] == 9.0
+
+
+def _sleeps() -> int:
+    time.sleep(30)
+    return 1
+
+
+def test_ctrl_c_while_waiting_kills_the_child_at_once(monkeypatch):
+    wait = apart.start(_sleeps)
+    monkeypatch.setattr(interrupt, "requested", lambda: True)
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        wait()
+    assert time.monotonic() - t0 < 1.0
