@@ -48,7 +48,6 @@ PLAN_MARGIN = 1e-3
 #: the energy stage keeps the robust plan's branch of every disjunction of predicates
 #: (``choices``): sound, and it removes the smooth max's negative curvature
 FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
-LAM_SCALING = False  # λ·(1 + ln n) per n-ary operator (smooth_casadi): measured worse
 #: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
 #: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
 #: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
@@ -114,6 +113,10 @@ IPOPT_DEFAULTS = {
     # monotone μ from a small start: every stage is warm-started near a solution; adaptive μ
     # fell to 1e-11 at once and the energy stage wandered (252 vs 150 iterations measured)
     "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-4, "ipopt.linear_solver": "mumps",
+    # the filter rejects trial points more infeasible than the start (default 1e4·θ₀): energy
+    # stages took near-singular steps (‖d‖ ≈ 20) from a feasible plan to infeasibility 15 and
+    # spent ~50 iterations at δ_w ≈ 1e11 coming back (4 handovers: 401 → 275 iterations)
+    "ipopt.theta_max_fact": 1.0,
     **{f"ipopt.{k}": v for k, v in MUMPS.items()},
 }
 #: IPOPT's return statuses → the shared ``SolverStatus`` (every backend that runs IPOPT uses
@@ -241,7 +244,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         chans[name] = ca.repmat(extra[-1], 1, n) if name == choices.MIX else extra[-1].T
     p = ca.vertcat(p, *extra)
     lowered = lower_robustness(fixed, grid, chans, program.params, lam,
-                               method=mission.smoothing.method, lam_scaling=LAM_SCALING)
+                               method=mission.smoothing.method)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
     g_list, lbg, ubg = [], [], []
@@ -415,16 +418,9 @@ class Progress(ca.Callback):
         return "ret"
 
     def get_sparsity_in(self, i):
-        n = ca.nlpsol_out(i)
-        if n == "f":
-            return ca.Sparsity.scalar()
-        if n in ("x", "lam_x"):
-            return ca.Sparsity.dense(self.nx)
-        if n in ("g", "lam_g"):
-            return ca.Sparsity.dense(self.ng)
-        if n == "lam_p":
-            return ca.Sparsity.dense(self.np_)
-        return ca.Sparsity(0, 0)
+        size = {"f": 1, "x": self.nx, "lam_x": self.nx, "g": self.ng, "lam_g": self.ng,
+                "lam_p": self.np_}.get(ca.nlpsol_out(i))
+        return ca.Sparsity(0, 0) if size is None else ca.Sparsity.dense(size)
 
     def eval(self, arg):
         exact = None
