@@ -15,11 +15,24 @@ The dynamics rows must come first in ``g``, vehicle by vehicle, as
 
 from __future__ import annotations
 
+import os
+
 import casadi as ca
 import numpy as np
 
 from stlc import vehicles
 from stlc.planning import dynamics
+
+MAX_THREADS = 4
+CHUNK_ROWS = 256
+
+
+def _map(fn: ca.Function, n: int) -> ca.Function:
+    """``fn`` over n intervals, on every core: the dynamics' Hessian is ~80 % of an iteration's
+    derivative evaluations (one RK4 step's Hessian is 17 k SX nodes); two threads measured
+    16 → 8.6 ms per Hessian on the 2-core machine.  Numeric evaluation is thread-safe."""
+    threads = min(os.cpu_count() or 1, MAX_THREADS)
+    return fn.map(n, "thread", threads) if threads > 1 else fn.map(n)
 
 
 def _scatter(nzs: list, rows: list, cols: list, nr: int, nc: int) -> ca.MX:
@@ -33,6 +46,33 @@ def _scatter(nzs: list, rows: list, cols: list, nr: int, nc: int) -> ca.MX:
     return ca.MX(sp, ca.vertcat(*nzs)[order.tolist()])
 
 
+def chunked_hessian(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, x: ca.MX, pm: ca.MX, lf: ca.MX,
+                    lg: ca.MX, rows: int = CHUNK_ROWS) -> ca.MX:
+    """Upper triangle of ∇²_w (lf·f + lgᵀg) at (x, pm) as MX, differentiated in chunks of
+    ``rows`` constraint rows (and the objective alone), each over only the variables it reads.
+    The values are the whole graph's Hessian; generating it takes about half as long (lifted
+    robustness of the handover: 1.7 → 0.9 s), because CasADi's colouring then works on
+    small graphs."""
+    nw = w.numel()
+    ng = g.numel()
+    pieces = [(f, lf)] + [(g[a:min(a + rows, ng)], lg[a:min(a + rows, ng)])
+                          for a in range(0, ng, rows)]
+    total = ca.MX(nw, nw)
+    for expr, mult in pieces:
+        dep = np.nonzero(ca.which_depends(expr, w, 1, False))[0]
+        if len(dep) == 0:
+            continue
+        sub, lam = ca.SX.sym("w", len(dep)), ca.SX.sym("lam", expr.numel())
+        e = ca.substitute(ca.dot(lam, expr), w[dep.tolist()], sub)
+        h = ca.triu(ca.hessian(e, sub)[0])
+        if h.nnz() == 0:
+            continue
+        fn = ca.Function("hess_chunk", [sub, p, lam], [h])
+        r, c = (dep[np.array(a, dtype=np.int64)] for a in h.sparsity().get_triplet())
+        total += _scatter([fn(x[dep.tolist()], pm, mult).nz[:]], [r], [c], nw, nw)
+    return total
+
+
 def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: float,
                    integrator: str, substeps: int, n_dyn: int) -> dict:
     """``{"jac_g": …, "hess_lag": …}`` for nlpsol: the NLP's constraint Jacobian and the
@@ -40,9 +80,6 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
     nw, ng = w.numel(), g.numel()
     n_int = (layouts[0].u_slice.stop - layouts[0].u_slice.start) // layouts[0].nu
     g_rest = g[n_dyn:]
-    lam_f, lam_r = ca.SX.sym("lam_f"), ca.SX.sym("lam_r", ng - n_dyn)
-    hess_rest = ca.Function("hess_rest", [w, p, lam_f, lam_r],
-                            [ca.triu(ca.hessian(lam_f * f + ca.dot(lam_r, g_rest), w)[0])])
     jac_rest = ca.Function("jac_rest", [w, p], [ca.jacobian(g_rest, w)])
     g_fn = ca.Function("g", [w, p], [g])
 
@@ -61,8 +98,8 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
         X = ca.reshape(x[L.x_slice], nx, -1)
         U = ca.reshape(x[L.u_slice], nu, n_int)
         MU = ca.reshape(lg[row0:row0 + nx * n_int], nx, n_int)
-        h_nz.append(ca.Function("hf", [xs, us, mu], [hf]).map(n_int)(X[:, :-1], U, MU).nz[:])
-        j_nz.append(ca.Function("jf", [xs, us], [jf]).map(n_int)(X[:, :-1], U).nz[:])
+        h_nz.append(_map(ca.Function("hf", [xs, us, mu], [hf]), n_int)(X[:, :-1], U, MU).nz[:])
+        j_nz.append(_map(ca.Function("jf", [xs, us], [jf]), n_int)(X[:, :-1], U).nz[:])
         hr, hc = (np.array(a, dtype=np.int64) for a in hf.sparsity().get_triplet())
         jr, jc = (np.array(a, dtype=np.int64) for a in jf.sparsity().get_triplet())
         for k in range(n_int):
@@ -78,7 +115,8 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
         j_c.append(L.x_slice.start + nx * (k + 1) + i)
         j_nz.append(ca.MX(ca.DM.ones(nx * n_int)))
         row0 += nx * n_int
-    hess = _scatter(h_nz, h_r, h_c, nw, nw) + hess_rest(x, pm, lf, lg[n_dyn:])
+    hess = _scatter(h_nz, h_r, h_c, nw, nw) + chunked_hessian(w, p, f, g_rest, x, pm, lf,
+                                                              lg[n_dyn:])
     jac = ca.vertcat(_scatter(j_nz, j_r, j_c, n_dyn, nw), jac_rest(x, pm))
     return {
         "hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
