@@ -48,6 +48,7 @@ PLAN_MARGIN = 1e-3
 #: the energy stage keeps the robust plan's branch of every disjunction of predicates
 #: (``choices``): sound, and it removes the smooth max's negative curvature
 FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
+FIX_WINDOWS = os.environ.get("STLC_FIX_WINDOWS", "1") == "1"  # and of every ``eventually``
 #: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
 #: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
 #: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
@@ -237,7 +238,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     formula = nnf.normalize(mission.requirement)
     chans = _channels(layouts, wt, n)
     planned = planner_form(formula, mission.threshold, program.params)
-    fixed, nodes = choices.choice_form(planned) if FIX_CHOICES else (planned, [])
+    fixed, nodes = choices.choice_form(planned, FIX_WINDOWS) if FIX_CHOICES else (planned, [])
     extra = []
     for name in choices.signals(nodes) if nodes else []:
         extra.append(ca.SX.sym(name, 1 if name == choices.MIX else n))

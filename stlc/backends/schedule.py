@@ -271,7 +271,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
         if inv.choice_nodes:  # keep the robust plan's branch of every disjunction
             inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(best, inv),
-                                               params, inv.grid.n)
+                                               params, inv.grid.n, inv.planned, inv.grid.dt)
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
                                      f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
                                      most_robust=False)
