@@ -99,7 +99,10 @@ def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
 #: recomputed at every factorisation) cost 120 ms per iteration on the handover's ~10 k KKT
 #: system; this costs 75 ms (40 iterations of the λ = 10 stage: 4.8 s -> 3.0 s CPU, the
 #: same iterates to 3 digits)
-MUMPS = {"mumps_pivot_order": 0, "mumps_scaling": 0, "mumps_permuting_scaling": 0}
+#: mumps_mem_percent 100 (default 1000): MUMPS no longer maps ~10× its estimated workspace at
+#: every factorisation, which cost 20 % of the search direction in system time (same iterates)
+MUMPS = {"mumps_pivot_order": 0, "mumps_scaling": 0, "mumps_permuting_scaling": 0,
+         "mumps_mem_percent": 100}
 IPOPT_DEFAULTS = {
     "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
     # IPOPT's acceptable test also ends a stage whose objective has stopped moving
