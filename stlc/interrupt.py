@@ -27,6 +27,7 @@ T = TypeVar("T")
 STACK_BYTES = 512 * 1024 * 1024  # virtual; only the pages actually used are committed
 RECURSION_LIMIT = 60_000
 GRACE_S = 1.5
+POLL_S = 0.05
 
 _requested = threading.Event()
 _lock = threading.Lock()
@@ -123,7 +124,10 @@ def run(fn: Callable[[], T]) -> T:
         # not ``worker.join()``: in Python 3.11 a join interrupted by Ctrl-C marks the
         # still running thread as stopped (bpo-45274's fix); an Event is safe to interrupt
         try:
-            done.wait()
+            # polled: the kernel may deliver SIGINT to any thread (CasADi's evaluation
+            # threads too), and then a blocking wait here is never interrupted
+            while not done.wait(POLL_S):
+                pass
         except KeyboardInterrupt:
             request()
             try:
