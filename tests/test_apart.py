@@ -65,3 +65,67 @@ def test_ctrl_c_while_waiting_kills_the_child_at_once(monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         wait()
     assert time.monotonic() - t0 < 1.0
+
+
+def test_cancel_kills_the_child():
+    wait = apart.start(_sleeps)
+    t0 = time.monotonic()
+    wait.cancel()
+    assert time.monotonic() - t0 < 1.0
+
+
+def test_a_failed_lowering_cancels_the_solve_apart(monkeypatch):
+    """run_chain: when the next backend's lowering fails while the seed solves apart, the
+    child is killed and the error propagates at once."""
+    from stlc.backends.base import Backend, run_chain
+
+    cancelled = []
+
+    class Seed(Backend):
+        name = "seed"
+
+        def accepts(self, problem):
+            return []
+
+        def lower(self, problem):
+            return None, None
+
+        def start(self, lowered, problem):
+            wait = apart.start(_sleeps)
+
+            def result():
+                return wait()
+
+            def cancel():
+                cancelled.append(True)
+                wait.cancel()
+
+            result.cancel = cancel
+            return result
+
+    class Broken(Backend):
+        name = "broken"
+        lower_needs_seed = False
+
+        def accepts(self, problem):
+            return []
+
+        def lower(self, problem):
+            raise RuntimeError("cannot lower")
+
+    t0 = time.monotonic()
+    with pytest.raises(RuntimeError, match="cannot lower"):
+        run_chain(object(), [Seed(), Broken()])
+    assert cancelled and time.monotonic() - t0 < 1.0
+
+
+def _interrupted_in_child() -> int:
+    if os.getpid() != PARENT:
+        os.kill(os.getpid(), signal.SIGINT)  # SIG_DFL in the child: it dies of it
+        time.sleep(5)
+    return 3
+
+
+def test_a_child_killed_by_ctrl_c_interrupts_the_parent():
+    with pytest.raises(KeyboardInterrupt):
+        apart.start(_interrupted_in_child)()

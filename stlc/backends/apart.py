@@ -7,15 +7,16 @@ the NLP while the guess is computed apart.  CasADi's symbolic layer is not threa
 own copy of everything and sends its result back pickled through a pipe.
 
 ``start(fn, *args)`` forks and returns a waiter; calling it returns ``fn(*args)`` and the
-child's CPU seconds.  Where ``fork`` is missing, or the child failed (it died, or ``fn``
-raised), the waiter calls ``fn`` in-process instead, so the result never depends on the
-process model.  Ctrl-C: the child ignores nothing (SIGINT kills it with the process group);
-a waiting parent polls ``interrupt.requested()``, kills the child and raises
-``KeyboardInterrupt`` at once.
+child's CPU seconds (``waiter.cancel()`` kills the child instead).  Where ``fork`` is
+missing, or the child failed (it died, or ``fn`` raised), the waiter calls ``fn``
+in-process instead, so the result never depends on the process model.  Ctrl-C: SIGINT
+kills the child with its process group; a waiting parent polls ``interrupt.requested()``,
+kills the child and raises ``KeyboardInterrupt`` at once.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import select
@@ -56,6 +57,13 @@ def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]
         _child(fn, args, wfd)
     os.close(wfd)
 
+    def cancel() -> None:
+        """Kill the child (the chain failed or was interrupted before waiting)."""
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            os.close(rfd)
+
     def wait() -> tuple[Any, float]:
         chunks = []
         try:
@@ -74,7 +82,9 @@ def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]
             raise
         finally:
             os.close(rfd)
-        _, _, rusage = os.wait4(pid, 0)
+        _, status, rusage = os.wait4(pid, 0)
+        if os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGINT:
+            raise KeyboardInterrupt  # Ctrl-C reached the child first
         try:
             kind, value = pickle.loads(b"".join(chunks))
         except Exception:  # noqa: BLE001 - the child died before sending a whole result
@@ -83,6 +93,7 @@ def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]
             return _inline(fn, args)()
         return value, _cpu(rusage)
 
+    wait.cancel = cancel  # type: ignore[attr-defined]
     return wait
 
 

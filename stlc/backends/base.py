@@ -168,7 +168,11 @@ def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solut
         lowered, inverse = early.pop(i) if i in early else b.lower(p)
         wait = b.start(lowered, p)
         if i + 1 < len(chain) and not chain[i + 1].lower_needs_seed:
-            early[i + 1] = chain[i + 1].lower(p)  # while ``b`` solves apart
+            try:
+                early[i + 1] = chain[i + 1].lower(p)  # while ``b`` solves apart
+            except BaseException:  # a lowering error or Ctrl-C: stop the solve apart too
+                getattr(wait, "cancel", lambda: None)()
+                raise
         raw = wait()
         sol = b.invert(raw, inverse, p)
         sols.append(sol)
