@@ -182,6 +182,11 @@ def test_handover_mission_plans_satisfying(handover_plans, handover_program, nam
           f"{sol.energy:.1f} J; {wall:.1f} s (build {sol.timing['build_s']:.1f}, guess "
           f"{sol.timing['guess_s']:.1f}, solve {sol.timing['solve_s']:.1f}); {stages}")
     assert sol.status == "satisfied", stages
+    # the first stage keeps the guess's choices; if it misses κ the formula as written follows
+    first = sol.solver["stages"][0]
+    assert first["label"] == "robustness:seeded"
+    if first["exact"] < handover_program.missions[name].threshold:
+        assert sol.solver["stages"][1]["label"] == "robustness"
     assert sol.robustness_exact >= handover_program.missions[name].threshold  # the contract
     assert sol.robustness_smooth <= sol.robustness_exact + 1e-9
     # every named spec of the mission holds, and the requirement is their conjunction
