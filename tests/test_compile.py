@@ -358,3 +358,11 @@ def test_every_spec_checks_and_compiles(fname):
         assert [d.code for d in e.value.diagnostics] == ["STL109"]
     else:  # pragma: no cover
         raise AssertionError(outcome)
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "tests" / "missions").glob("*.stl")),
+                         ids=lambda p: p.name)
+def test_benchmark_missions_check(path):
+    """The missions the benchmarks plan (unseen handovers, larger teams) stay valid input."""
+    program = load(str(path)).program
+    assert program.missions
