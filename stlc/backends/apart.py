@@ -21,6 +21,7 @@ import os
 import pickle
 import select
 import signal
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -57,11 +58,14 @@ def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]
         _child(fn, args, wfd)
     os.close(wfd)
 
+    def kill() -> None:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+
     def cancel() -> None:
         """Kill the child (the chain failed or was interrupted before waiting)."""
         with contextlib.suppress(OSError):
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
+            kill()
             os.close(rfd)
 
     def wait() -> tuple[Any, float]:
@@ -77,8 +81,7 @@ def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]
                         break
                     chunks.append(chunk)
         except BaseException:
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
+            kill()
             raise
         finally:
             os.close(rfd)
@@ -98,11 +101,10 @@ def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]
 
 
 def _inline(fn: Callable[..., Any], args: tuple) -> Callable[[], tuple[Any, float]]:
-    import time
-
     def wait() -> tuple[Any, float]:
         c0 = time.process_time()
         value = fn(*args)
         return value, time.process_time() - c0
 
+    wait.cancel = lambda: None  # type: ignore[attr-defined]  # nothing runs before the wait
     return wait

@@ -68,7 +68,7 @@ class KinematicGuess(Backend):
             (kin, dt_s), cpu_s = wait()
             return kin, dt_s, cpu_s, time.perf_counter() - t0
 
-        result.cancel = getattr(wait, "cancel", lambda: None)
+        result.cancel = wait.cancel
         return result
 
     def invert(self, raw, inverse, problem: PlanningProblem) -> Solution:
