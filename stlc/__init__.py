@@ -1,4 +1,9 @@
-"""stlc — a compiler for a Signal Temporal Logic mission language."""
+"""stlc — a compiler for a Signal Temporal Logic mission language.
+
+The Python API (``stlc.api``, loaded on first use so that ``import stlc`` stays cheap):
+``stlc.load(path)``, ``stlc.loads(text)``, ``stlc.compile(program, mission)``,
+``stlc.monitor(program, trace)`` and ``stlc.StlError``.
+"""
 
 import os as _os
 
@@ -10,3 +15,14 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
 __version__ = "0.1.0"
+
+_API = ("load", "loads", "compile", "monitor", "StlError", "Plan", "with_constants")
+__all__ = list(_API)
+
+
+def __getattr__(name: str):
+    if name in _API:
+        from stlc import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'stlc' has no attribute {name!r}")

@@ -1,4 +1,5 @@
-"""Command line: ``stlc check | monitor | compile | simulate | risk | bench``.
+"""Command line: ``stlc check | monitor | compile | simulate | risk | bench | fmt | lsp |
+explain`` (the language tools live in ``stlc.tools``).
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
@@ -69,6 +70,14 @@ def _parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
+
+    f = sub.add_parser("fmt", help="format .stl files in place (`-`: stdin to stdout)")
+    f.add_argument("files", nargs="+", metavar="FILE")
+    f.add_argument("--check", action="store_true", help="write nothing; exit 1 and name "
+                   "the files that would change")
+    sub.add_parser("lsp", help="the language server (LSP over stdio, for editors)")
+    e = sub.add_parser("explain", help="the long explanation of an error code")
+    e.add_argument("code", metavar="STLxxx")
     return p
 
 
@@ -110,8 +119,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.cmd == "simulate" and (args.fail is None) != (args.backup is None):
         parser.error("--fail and --backup go together")
+    if args.cmd == "lsp":  # asyncio on the main thread; it never returns an input error
+        from stlc.tools.lsp import serve
+
+        return serve()
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
-           "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
+           "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
+           "fmt": cmd_fmt, "explain": cmd_explain}[args.cmd]
     try:
         # a big-stack worker thread: deep formulas recurse safely, Ctrl-C stops at once
         return interrupt.run(lambda: cmd(args))
@@ -221,6 +235,18 @@ def cmd_bench(args) -> int:
     from stlc import bench
 
     return bench.main(args.args)
+
+
+def cmd_fmt(args) -> int:
+    from stlc.tools import fmt
+
+    return fmt.run(args.files, check=args.check)
+
+
+def cmd_explain(args) -> int:
+    from stlc.tools import explain
+
+    return explain.run(args.code)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -132,6 +132,16 @@ class Diagnostic:
         if self.code not in CODES:
             raise ValueError(f"unregistered diagnostic code {self.code}")
 
+    @property
+    def line(self) -> int:
+        """1-based line (0 when the diagnostic has no location)."""
+        return self.span.line
+
+    @property
+    def column(self) -> int:
+        """1-based column."""
+        return self.span.col
+
     def sort_key(self) -> tuple:
         return (self.span.file, self.span.line, self.span.col, self.code, self.message)
 
