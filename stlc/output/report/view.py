@@ -283,7 +283,11 @@ def _split_comment(text: str) -> tuple[str, str]:
 
 
 def _source(program: Program, mission: Mission, sol: Solution, rows: list[dict]) -> dict:
+    from stlc.frontend.lexer import highlight_lines
+
     text = program.source.splitlines()
+    html = highlight_lines(program.source)  # escaped HTML per line (Pygments, `stlc` lexer)
+    html = html if len(html) == len(text) else [""] * len(text)
     spec_lines = {n for r in rows if r["line"] for n in range(r["line"], r["end_line"] + 1)}
     fail_lines = {r["line"] for r in rows if not r["satisfied"]} | \
         {r["predicate_line"] for r in rows if not r["satisfied"]}
@@ -302,7 +306,7 @@ def _source(program: Program, mission: Mission, sol: Solution, rows: list[dict])
                                ("diag", n in diag_lines)) if on]
         code, comment = _split_comment(s)
         lines.append({"n": n, "id": f"L{n}", "code": code, "comment": comment,
-                      "cls": " ".join(cls)})
+                      "html": html[n - 1], "cls": " ".join(cls)})
     return {"file": program.file, "lines": lines, "diagnostics": diags}
 
 
