@@ -1,0 +1,2 @@
+"""Language tools: ``stlc fmt``, ``stlc lsp``, ``stlc explain`` (the lexer is
+``stlc.frontend.lexer``)."""

@@ -22,8 +22,8 @@ def explain(code: str) -> str | None:
         return None
     text, wrong, fixed = EXPLANATIONS[code]
     body = textwrap.fill(text, 88)
-    return (f"{code}: {CODES[code]}\n\n{body}\n\nWrong:\n\n{textwrap.indent(wrong.rstrip(), '    ')}"
-            f"\n\nFixed:\n\n{textwrap.indent(fixed.rstrip(), '    ')}\n")
+    wrong, fixed = (textwrap.indent(x.rstrip(), "    ") for x in (wrong, fixed))
+    return f"{code}: {CODES[code]}\n\n{body}\n\nWrong:\n\n{wrong}\n\nFixed:\n\n{fixed}\n"
 
 
 def run(code: str) -> int:

@@ -21,7 +21,8 @@ _REQ = "  require always[0, 5] uav1.pos.z > 0\n"
 
 
 def _m(body: str, head: str = _PM) -> str:
-    return head + "mission m {\n  vehicles = [uav1]\n  horizon = 5 s\n  step = 0.1 s\n" + body + "}\n"
+    return (head + "mission m {\n  vehicles = [uav1]\n  horizon = 5 s\n  step = 0.1 s\n" + body
+            + "}\n")
 
 
 EXPLANATIONS: dict[str, tuple[str, str, str]] = {

@@ -51,15 +51,33 @@ def _comment_parser() -> tuple[Lark, list]:
     return parser, found
 
 
-def comments_of(text: str) -> list[Comment]:
-    """Every comment of a source that parses, in order (Lark lexer callback)."""
+def parse_with_comments(text: str, file: str = "<stdin>") -> tuple[ast.File, list[Comment]]:
+    """The AST and every comment of ``text`` in one parse (Lark lexer callback); raises
+    ``StlcError`` as ``stlc.frontend.syntax.parse`` does."""
+    from stlc.frontend import syntax
+
+    text = normalize_newlines(text.removeprefix("\ufeff"))
     parser, found = _comment_parser()
     found.clear()
     parser.options.postlex.text = text
-    parser.parse(text)
-    out = [Comment(t.start_pos, t.line, str(t).rstrip()) for t in found]
+    try:
+        tree = parser.parse(text)
+        if syntax._tree_depth(tree) > syntax.MAX_TREE_DEPTH or \
+                any(len(x) > syntax.MAX_LINE for x in text.split("\n")):
+            raise ValueError("limits")
+        members = syntax._Builder(file).transform(tree)
+    except Exception:  # noqa: BLE001 - the parser of the compiler says what is wrong
+        found.clear()
+        parse(text, file)  # raises the diagnostic
+        raise
+    comments = [Comment(t.start_pos, t.line, str(t).rstrip()) for t in found]
     found.clear()
-    return out
+    return ast.File(members, file, text), comments
+
+
+def comments_of(text: str) -> list[Comment]:
+    """Every comment of a source that parses, in order."""
+    return parse_with_comments(text)[1]
 
 
 class FormatError(Exception):
@@ -69,14 +87,13 @@ class FormatError(Exception):
 def format_text(text: str, file: str = "<stdin>") -> str:
     """The canonical layout of ``text``; raises ``StlcError`` when it does not parse."""
     text = normalize_newlines(text.removeprefix("\ufeff"))
-    tree = parse(text, file)
-    out = _Formatter(text, comments_of(text)).file(tree.members)
-    again = parse(out, file)
+    tree, comments = parse_with_comments(text, file)
+    out = _Formatter(text, comments).file(tree.members)
+    again, kept = parse_with_comments(out, file)
     if again.members != tree.members:
         raise FormatError(f"{file}: formatting would change the program (a bug in stlc fmt)")
-    if sorted(c.text for c in comments_of(out)) != sorted(c.text for c in comments_of(text)):
-        if _words(comments_of(out)) != _words(comments_of(text)):
-            raise FormatError(f"{file}: formatting would lose a comment (a bug in stlc fmt)")
+    if _words(kept) != _words(comments):
+        raise FormatError(f"{file}: formatting would lose a comment (a bug in stlc fmt)")
     return out
 
 
@@ -226,7 +243,19 @@ class _Formatter:
             case ast.Uncertain(target, v):
                 head, value = f"{'.'.join(target.parts)} ~ ", v
             case ast.Signals(names):
-                return [[ind, "signal " + ", ".join(names), [c.text for c in inner], None]]
+                rows, cur = [], ind + "signal "
+                for i, nm in enumerate(names):
+                    item = nm + ("," if i < len(names) - 1 else "")
+                    if cur.strip() != "signal" and len(cur) + 1 + len(item) > LIMIT:
+                        rows.append(cur)
+                        cur = ind + "       " + item
+                    else:
+                        cur += ("" if cur.endswith("signal ") else " ") + item
+                rows.append(cur)
+                out = [[ind, rows[0][len(ind):], [], None]] + [["", r, [], None]
+                                                               for r in rows[1:]]
+                out[-1][2] = [c.text for c in inner]
+                return out
             case _:
                 raise TypeError(f"cannot format {m!r}")
         leaves = leaves_in_order(value)

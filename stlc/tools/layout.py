@@ -188,13 +188,16 @@ class Printer:
                 parts = _chain(n)
                 lines = lay(parts[0][1], parts[0][2], col, breaks, hang)
                 at = col if hang is None else hang
+                broken = len(lines) > 1  # an operand took several lines: the next starts one
                 for k, (op, x, ml) in enumerate(parts[1:], 2):
                     op = op if op != "until" else "until" + self.interval(n.interval)
                     t = tail if k == len(parts) else 0
                     sub = lay(x, ml, at + len(op) + 1, breaks, hang, t)
                     cand = f"{lines[-1]} {op} {sub[0]}"
                     end = width(cand) + (col if len(lines) == 1 else 0) + t
-                    if len(sub) == 1 and end <= LIMIT and not _has(lines[-1], breaks):
+                    fits = len(sub) == 1 and end <= LIMIT and not broken
+                    broken = len(sub) > 1
+                    if fits and not _has(lines[-1], breaks):
                         lines[-1] = cand
                     else:
                         lines.append(" " * at + f"{op} {sub[0]}")
