@@ -64,3 +64,25 @@ def test_highlighted_html_is_escaped():
     (line,) = highlight_lines('spec a = x > 1  # </script> "<b>"\n')
     assert "</script>" not in line and "&lt;/script&gt;" in line
     assert line.startswith('<span class="hl-kd">spec</span>')
+
+
+def test_the_editor_files():
+    import json
+    import re
+
+    grammar = json.loads((ROOT / "editors/stlc.tmLanguage.json").read_text(encoding="utf-8"))
+    assert grammar["scopeName"] == "source.stlc" and grammar["fileTypes"] == ["stl"]
+    for name, rule in grammar["repository"].items():
+        for r in rule.get("patterns", [rule]):
+            re.compile(r["match"])  # the patterns use only what Oniguruma and `re` share
+    comment = re.compile(grammar["repository"]["comment"]["match"], re.M)
+    assert comment.search("x = 1  # note").group() == "# note"
+    pkg = json.loads((ROOT / "editors/vscode/package.json").read_text(encoding="utf-8"))
+    (lang,) = pkg["contributes"]["languages"]
+    assert lang["id"] == "stlc" and lang["extensions"] == [".stl"]
+    (gram,) = pkg["contributes"]["grammars"]
+    assert (ROOT / "editors/vscode" / gram["path"]).resolve() == \
+        (ROOT / "editors/stlc.tmLanguage.json").resolve()
+    assert pkg["contributes"]["configuration"]["properties"]["stlc.command"]["default"] == \
+        ["stlc", "lsp"]
+    assert "LanguageClient" in (ROOT / "editors/vscode/extension.js").read_text()
