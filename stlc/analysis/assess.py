@@ -13,8 +13,8 @@ command itself is ordered by ``stlc.pipeline.risk_file``).
 from __future__ import annotations
 
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
-from stlc.output.solution import Solution
-from stlc.planning.problem import mission_specs
+from stlc.planning.solution import Solution
+from stlc.semantics.specs import mission_specs
 from stlc.semantics import model, nnf
 
 EXIT_OK = 0

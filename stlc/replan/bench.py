@@ -28,7 +28,7 @@ from collections import Counter
 import numpy as np
 
 from stlc.analysis import monitor
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.planning.problem import from_mission
 from stlc.replan.disturb import simulate_disturbances
 from stlc.replan.segment import kept_clauses

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.planning.bounds import bound_specs, stated_bounds
 from stlc.semantics import ir, nnf
 from stlc.semantics.model import Mission, Program

@@ -25,7 +25,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Objective, Program
 from stlc.vehicles import model_of
 
