@@ -23,7 +23,7 @@ from stlc.analysis.trace import read_trace
 from stlc.diagnostics import StlcError
 from stlc.output.solution import trajectory_csv
 from stlc.pipeline import compile_file, load, plan
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
 from stlc.semantics import model, nnf
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -1,4 +1,4 @@
-"""Tests for stlc.analysis.geometry and stlc.planning.dynamics against independently computed
+"""Tests for stlc.vehicles.geometry and stlc.vehicles.dynamics against independently computed
 values."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from stlc.analysis import geometry as geo
-from stlc.planning import dynamics as dyn
+from stlc.vehicles import geometry as geo
+from stlc.vehicles import dynamics as dyn
 from stlc.semantics.model import Multirotor, PointMass, Rotor
 from stlc.vehicles import model_of
 

@@ -37,7 +37,7 @@ from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
 from stlc.semantics import ir, model, nnf
 from stlc.semantics.timegrid import TimeGrid
 

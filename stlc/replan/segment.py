@@ -48,7 +48,7 @@ from stlc import vehicles
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import ExprEnv, gkl_max, lower_expr, planner_form, smin
 from stlc.backends.casadi_nlp import STATUS_MAP, envelope, substeps
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
 from stlc.semantics import ir, model
 
 #: λ of the smooth max/min inside a kept spec's body (on scaled planner margins)

@@ -15,7 +15,7 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
-from stlc.semantics import model
+from stlc.vehicles import declared as model
 
 
 class VehicleModel(Protocol):

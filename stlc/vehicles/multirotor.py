@@ -1,6 +1,6 @@
 """The rigid-body multirotor model (paper A eq. 1): state (p, η, v, ω, ξ), input ξ̇.
 
-The equations live in ``stlc.planning.dynamics``; this module is the model's entry in the vehicle
+The equations live in ``stlc.vehicles.dynamics``; this module is the model's entry in the vehicle
 registry: layout, bounds, start state, derived signals (speed, course, heading, rotor
 speed), energy (paper A eq. 5) and the guess built from a kinematic path.
 """
@@ -10,9 +10,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from stlc.analysis import geometry
-from stlc.planning import dynamics
-from stlc.semantics.model import AXES, Multirotor
+from stlc.vehicles import geometry
+from stlc.vehicles import dynamics
+from stlc.vehicles.declared import AXES, Multirotor
 
 POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), 12
 GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess

@@ -7,8 +7,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from stlc.planning import dynamics
-from stlc.semantics.model import PointMass
+from stlc.vehicles import dynamics
+from stlc.vehicles.declared import PointMass
 
 POS, VEL = slice(0, 3), slice(3, 6)
 

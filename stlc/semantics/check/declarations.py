@@ -129,7 +129,7 @@ def _multirotor(ck: Context, b: ast.Block) -> model.Multirotor | None:
 
 
 def _check_hover(ck: Context, v: model.Multirotor, b: ast.Block) -> None:
-    from stlc.planning import dynamics
+    from stlc.vehicles import dynamics
 
     try:
         dynamics.hover_forces(v, check_bounds=True)
