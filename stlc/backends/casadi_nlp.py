@@ -49,15 +49,7 @@ PLAN_MARGIN = 1e-3
 #: (``choices``): sound, and it removes the smooth max's negative curvature
 FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
 FIX_WINDOWS = os.environ.get("STLC_FIX_WINDOWS", "1") == "1"  # and of every ``eventually``
-#: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
-#: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
-#: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
 FEASIBLE_DEFECT = 1e-6  # max dynamics defect of an iterate accepted as a plan
-ENVELOPE_TILT = np.deg2rad(60.0)
-ENVELOPE_RATE = 6.0
-ENVELOPE_VEL = 5.0
-ENVELOPE_DFORCE_TIME = 0.25
-
 
 MAX_SUBSTEP = 0.1  # s: integrator sub-steps per interval are at most this long
 
@@ -80,19 +72,6 @@ def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") ->
                                        substeps(inv.grid.dt)).map(n - 1)
         worst = max(worst, float(np.max(np.abs(X[:, 1:] - np.asarray(F(X[:, :-1], U))))))
     return worst
-
-
-def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
-    if vehicles.model_of(v).kind != "multirotor":
-        return b
-    x_lo, x_hi, u_lo, u_hi = (np.array(a, dtype=float) for a in (b.x_lo, b.x_hi, b.u_lo, b.u_hi))
-    x_lo[3:5], x_hi[3:5] = -ENVELOPE_TILT, ENVELOPE_TILT
-    x_lo[6:9], x_hi[6:9] = -ENVELOPE_VEL, ENVELOPE_VEL
-    x_lo[9:12], x_hi[9:12] = -ENVELOPE_RATE, ENVELOPE_RATE
-    if v.dforce_max is None:
-        r = (v.force_max - v.force_min) / ENVELOPE_DFORCE_TIME
-        u_lo[:], u_hi[:] = -r, r
-    return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
 
 
 #: MUMPS: AMD ordering, no matrix scaling.  Its default (automatic ordering, scaling
@@ -267,7 +246,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         g_list.append(ca.vec(X[:, 1:] - F(X[:, :-1], U)))
         lbg.append(np.zeros(L.nx * N))
         ubg.append(np.zeros(L.nx * N))
-        b = envelope(v, vm.bounds(v))
+        b = vm.envelope(v, vm.bounds(v))
         lbx[L.x_slice] = np.tile(b.x_lo, n)
         ubx[L.x_slice] = np.tile(b.x_hi, n)
         lbx[L.u_slice] = np.tile(b.u_lo, N)

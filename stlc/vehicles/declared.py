@@ -77,3 +77,21 @@ class PointMass:
 
 
 Vehicle = Multirotor | PointMass
+
+
+@dataclass(frozen=True, slots=True)
+class FormulaField:
+    """A field of a vehicle that a formula may read beyond the common ``pos``, ``vel``,
+    ``speed``, ``horizontal_speed`` and ``course`` (asked of the model, see
+    ``VehicleModel.formula_fields``).
+
+    Each component reads the channel ``channels[i]``, or ``sqrt(channel / sqrt_of_ratio)``
+    when ``sqrt_of_ratio`` is set (a rotor speed from its force); ``labels`` are the names
+    the component has in traces and messages; ``dim`` is the unit's exponents over
+    (length, mass, time, angle), ``None`` for a count."""
+
+    dim: tuple[int, int, int, int] | None
+    channels: tuple[str, ...]
+    labels: tuple[str, ...]
+    vector: bool
+    sqrt_of_ratio: float | None = None
