@@ -48,10 +48,9 @@ def run_case(cmd: str, path: str, mission: str) -> dict:
         rec["status"] = sol["status"]
         rec["exact"] = _num(sol["robustness"]["exact"])
         rec["specs"] = {k: _num(v["robustness"]) for k, v in sorted(sol["specs"].items())}
-        rec["comparisons"] = {c.get("name", str(i)): _num(c.get("robustness", {}).get("exact")
-                                                            if isinstance(c.get("robustness"), dict)
-                                                            else c.get("robustness"))
-                              for i, c in enumerate(sol.get("comparisons", []))}
+        rec["energy"] = _num(sol["energy"])
+        rec["comparisons"] = {c["label"]: _num(c["robustness_exact"])
+                              for c in sol.get("comparisons", [])}
         if cmd == "simulate":
             with open(os.path.join(out, "replan.json")) as fh:
                 rp = json.load(fh)
