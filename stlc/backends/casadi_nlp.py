@@ -192,10 +192,10 @@ def _channels(layouts: list[Layout], w: ca.SX, n: int) -> dict[str, ca.SX]:
     for L in layouts:
         X = ca.reshape(w[L.x_slice], L.nx, n)
         U = ca.reshape(w[L.u_slice], L.nu, n - 1)
-        for i, name in enumerate(L.vehicle.channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).state_channels(L.vehicle)):
             out[name] = X[i, :]
         Up = ca.horzcat(U, U[:, -1])
-        for i, name in enumerate(L.vehicle.input_channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).input_channels(L.vehicle)):
             out[name] = Up[i, :]
     return out
 
@@ -313,10 +313,10 @@ def trajectory_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray
     for L in inv.layouts:
         X = np.asarray(w[L.x_slice]).reshape(n, L.nx).T
         U = np.asarray(w[L.u_slice]).reshape(n - 1, L.nu).T
-        for i, name in enumerate(L.vehicle.channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).state_channels(L.vehicle)):
             out[name] = X[i].copy()
         Up = np.hstack([U, U[:, -1:]])
-        for i, name in enumerate(L.vehicle.input_channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).input_channels(L.vehicle)):
             out[name] = Up[i].copy()
     return out
 
