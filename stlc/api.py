@@ -101,7 +101,9 @@ class Plan:
         """The ``solution.json`` of this plan, as a dict (strict JSON values)."""
         import json
 
-        return json.loads(self.solution.to_json())
+        from stlc.output.solution import solution_json
+
+        return json.loads(solution_json(self.solution))
 
     def write(self, outdir: str | os.PathLike) -> str:
         """Write the files of ``stlc compile -o OUTDIR`` (same contract: only stlc's own

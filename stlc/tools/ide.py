@@ -24,10 +24,9 @@ GROUPS = ("team", "vehicles", "targets", "stations", "homes", "obstacles", "regi
 HUMAN_FIELDS = {"pos": "position of the human, m (x, y, z)",
                 "att": "attitude of the human, rad (roll, pitch, yaw)",
                 "heading": "heading (yaw) of the human, rad"}
-#: fields by vehicle model when the file does not check (else asked from the checker)
-FIELDS = {None: ("pos", "vel", "speed", "horizontal_speed", "course"),
-          "multirotor": ("att", "rate", "heading", "force", "dforce", "rotor_speed"),
-          "point_mass": ("acc", "payload")}
+#: the fields every vehicle has, offered when the file does not check (else the model's
+#: own fields are asked from the checker and the vehicle registry)
+COMMON_FIELDS = ("pos", "vel", "speed", "horizontal_speed", "course")
 MAX_RECOVERY = 5  # syntax errors skipped per analysis
 
 
@@ -239,9 +238,7 @@ def vehicle_fields(an: Analysis, vehicle: str) -> dict[str, str]:
             desc += "" if f"({unit})" in desc or f"{unit})" in desc else f", {unit}"
             out[k] = desc + (f"; components {comps}" if comps else "")
         return out
-    sym = next((s for s in an.symbols if s.kind == "vehicle" and s.name == vehicle), None)
-    model = sym.model if sym else None
-    return {k: "" for k in FIELDS[None] + FIELDS.get(model, ())}
+    return {k: "" for k in COMMON_FIELDS}
 
 
 def spec_robustness(path: str, spec: str) -> str | None:

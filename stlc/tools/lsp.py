@@ -42,6 +42,7 @@ class StlcServer(LanguageServer):
                          text_document_sync_kind=T.TextDocumentSyncKind.Full)
         self.analyses: dict[str, ide.Analysis] = {}  # uri → latest analysis
         self.parsed: dict[str, ide.Analysis] = {}  # uri → latest analysis that parsed
+        self.checked: dict[str, ide.Analysis] = {}  # uri → latest analysis that checked
 
     def refresh(self, uri: str) -> None:
         doc = self.workspace.get_text_document(uri)
@@ -50,15 +51,22 @@ class StlcServer(LanguageServer):
         if an.tree is not None and not any(d.code in ("STL001", "STL002", "STL003")
                                            for d in an.diagnostics):
             self.parsed[uri] = an
+        if an.program is not None:
+            self.checked[uri] = an
         diags = [_diagnostic(doc, d) for d in an.diagnostics]
         self.text_document_publish_diagnostics(
             T.PublishDiagnosticsParams(uri=uri, diagnostics=diags, version=doc.version))
 
     def known(self, uri: str) -> ide.Analysis | None:
-        """The latest analysis, or the latest that parsed when this one did not."""
+        """The latest analysis, or the latest that parsed when this one did not; when it
+        did not check, the checked program of the latest that did (for a vehicle's
+        fields)."""
         an = self.analyses.get(uri)
         if an is None or an.tree is None:
-            return self.parsed.get(uri, an)
+            an = self.parsed.get(uri, an)
+        ok = self.checked.get(uri)
+        if an is not None and an.program is None and ok is not None:
+            an = ide.Analysis(an.text, an.path, an.diagnostics, an.tree, ok.program, an.symbols)
         return an
 
 
@@ -118,6 +126,7 @@ def make_server() -> StlcServer:
         uri = params.text_document.uri
         ls.analyses.pop(uri, None)
         ls.parsed.pop(uri, None)
+        ls.checked.pop(uri, None)
         ls.text_document_publish_diagnostics(T.PublishDiagnosticsParams(uri=uri,
                                                                         diagnostics=[]))
 
