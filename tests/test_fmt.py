@@ -155,7 +155,7 @@ def test_check_write_stdin_and_untouched_broken_files(tmp_path):
     r = stlc("fmt", str(a), str(b))
     assert r.returncode == 0 and a.read_text() == good and b.read_text() == good
     assert stat.S_IMODE(a.stat().st_mode) == 0o640
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.stl", "b.stl", "bad.stl"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.stl", "b.stl", "bad.stl"]  # no temp
     before = bad.read_bytes(), bad.stat().st_mtime_ns
     r = stlc("fmt", str(bad), str(a))
     assert r.returncode == 1 and "error[STL002]" in r.stderr and str(bad) in r.stderr
@@ -166,6 +166,13 @@ def test_check_write_stdin_and_untouched_broken_files(tmp_path):
     assert r.returncode == 1 and r.stdout == "" and "STL002" in r.stderr
     assert stlc("fmt", "--check", "-", stdin=messy).returncode == 1
     assert stlc("fmt", "--check", "-", stdin=good).returncode == 0
+    crlf = tmp_path / "w.stl"
+    crlf.write_bytes(messy.replace("\n", "\r\n").encode())
+    link = tmp_path / "link.stl"
+    link.symlink_to(crlf)
+    assert stlc("fmt", str(link)).returncode == 0
+    assert link.is_symlink() and crlf.read_bytes() == good.replace("\n", "\r\n").encode()
+    assert stlc("fmt", "--check", str(crlf)).returncode == 0
     r = stlc("fmt", str(tmp_path / "missing.stl"))
     assert r.returncode == 1 and "STL601" in r.stderr
 

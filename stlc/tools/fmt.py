@@ -358,7 +358,8 @@ def _render(rows: list) -> str:
 
 def write_atomic(path: str, text: str) -> None:
     """Replace ``path`` with ``text`` at once (same folder, same permissions)."""
-    folder = os.path.dirname(os.path.abspath(path))
+    path = os.path.realpath(path)  # a symbolic link stays a link to the new text
+    folder = os.path.dirname(path)
     mode = os.stat(path).st_mode & 0o7777
     fd, tmp = tempfile.mkstemp(prefix=".stlc-fmt-", suffix=".stl", dir=folder)
     try:
@@ -393,6 +394,8 @@ def run(files: list[str], check: bool = False) -> int:
             with open(f, "rb") as fh:
                 src = decode(fh.read(), f)
             out = format_text(src, f)
+            if "\r\n" in src:  # a Windows file keeps its line ends
+                out = out.replace("\n", "\r\n")
         except StlcError as e:
             errors.append(e)
             sources = {}
