@@ -296,7 +296,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
 def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfig) -> None:
     """Before any solve: can a replanning segment keep the specs of ``keep = [...]``?"""
     from stlc.planning.problem import from_mission
-    from stlc.replan.segment import KeptSpecError, kept_clauses
+    from stlc.planning.kept import KeptSpecError, kept_clauses
 
     problem = from_mission(program, m)
     try:
@@ -345,9 +345,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
 
             sim = simulate_failure(problem, sol, fails[0], cfg)
         else:
+            from stlc.backends.segment import SegmentBackend
             from stlc.replan.disturb import simulate_disturbances
 
-            sim = simulate_disturbances(problem, sol, dist, cfg)
+            sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
     except ValueError as e:  # the replanning modules' input errors (subclasses)
         if type(e) is ValueError:
             raise
