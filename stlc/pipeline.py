@@ -14,8 +14,6 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
@@ -82,10 +80,6 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
         r = float(v)
         out[name] = {"robustness": r, "satisfied": bool(r > 0)}
     return out
-
-
-def as_float(x) -> float:
-    return float(np.asarray(x).reshape(-1)[0])
 
 
 # ---------------------------------------------------------------- planning

@@ -142,13 +142,6 @@ def point_mass_ode(vehicle: PointMass) -> ca.Function:
     return ca.Function("f", [x, u], [ca.vertcat(x[3:6], u)], ["x", "u"], ["xdot"])
 
 
-def point_mass_ode_np(vehicle: PointMass) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    def f(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return np.concatenate([np.asarray(x, dtype=float)[3:6], np.asarray(u, dtype=float)])
-
-    return f
-
-
 # --------------------------------------------------------------------------- bounds, start
 
 
