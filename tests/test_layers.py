@@ -4,7 +4,7 @@ stays inside one unit (a folder, or a top-level module).
 
 The units, lowest first (``LAYERS``)::
 
-    ground     stlc (the package), diagnostics, interrupt, strictjson
+    ground     stlc (the package), diagnostics, interrupt, strictjson, exitcodes
     frontend   source text → AST
     vehicles   declared data, dynamics, geometry and behaviour of each vehicle model
     semantics  checker → checked Program, IR, NNF, time grid, named specs
@@ -29,7 +29,7 @@ from collections import defaultdict
 from test_import_graph import graph
 
 LAYERS: list[set[str]] = [
-    {"stlc", "diagnostics", "interrupt", "strictjson"},
+    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes"},
     {"frontend"},
     {"vehicles"},
     {"semantics"},

@@ -19,7 +19,7 @@ from stlc.analysis import monitor, smooth
 from stlc.planning.solution import Solution, SpecResult, Verdict
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
-from stlc.semantics import ir
+from stlc.semantics.specs import reads_payload
 
 
 def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, list]:
@@ -31,7 +31,7 @@ def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, l
         if all(c in ch for c in vm.state_channels(v)):
             ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
     events: list = []
-    if any(s.endswith(".payload") for s in ir.signals(problem.requirement)):
+    if reads_payload(problem.requirement):
         from stlc.team.payload import payload_team
         from stlc.team.seed import scenario_from_program
 
