@@ -63,7 +63,8 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
             satisfied=bool(r >= kappa),
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
-            line=spec.span.line)
+            line=spec.span.line,
+            binding_line=pred.span.line if pred is not None and pred.span.known else 0)
     if sol.status != Verdict.SOLVER_FAILED:
         sol.status = (Verdict.SATISFIED if exact >= kappa and sol.feasible
                       else Verdict.VIOLATED)
