@@ -332,9 +332,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     t1 = time.perf_counter()
     try:
         if fails:
+            from stlc.backends.backup import BackupPlanner
             from stlc.replan.takeover import simulate_failure
 
-            sim = simulate_failure(problem, sol, fails[0], cfg)
+            sim = simulate_failure(problem, sol, fails[0], cfg, planner=BackupPlanner())
         else:
             from stlc.backends.segment import SegmentBackend
             from stlc.replan.disturb import simulate_disturbances
