@@ -65,12 +65,13 @@ def run_case(cmd: str, path: str, mission: str, frozen: bool = False) -> dict:
         return rec
 
 
-def record(frozen: bool = False) -> dict:
-    """Every case; with ``frozen`` only the ``simulate`` ones, with the segment's clock
-    frozen (``frozen_clock.py``: events decided by the mathematics, not the load)."""
+def record(frozen: bool = False, only: str | None = None) -> dict:
+    """Every case (or the ``only`` command's); with ``frozen`` only the ``simulate`` ones,
+    with the segment's clock frozen (``frozen_clock.py``: events decided by the
+    mathematics, not the load)."""
     res = {}
     for cmd, path, mission in CASES:
-        if frozen and cmd != "simulate":
+        if (frozen and cmd != "simulate") or (only and cmd != only):
             continue
         key = f"{cmd} {path} {mission}"
         print(key, file=sys.stderr, flush=True)
@@ -106,15 +107,16 @@ def main() -> int:
     ap.add_argument("--compare", metavar="BEFORE")
     ap.add_argument("--frozen-clock", action="store_true",
                     help="simulate cases only, the replanning segment's clock frozen")
+    ap.add_argument("--only", choices=("compile", "simulate"))
     args = ap.parse_args()
-    res = record(args.frozen_clock)
+    res = record(args.frozen_clock, args.only)
     if args.write:
         with open(args.write, "w") as fh:
             json.dump(res, fh, indent=1, sort_keys=True)
     if args.compare:
         with open(args.compare) as fh:
             before = json.load(fh)
-        d = diff(before, res)
+        d = diff({k: v for k, v in before.items() if k in res}, res)
         print("\n".join(d) if d else "identical (exact robustness to 1e-9, same events)")
         return 1 if d else 0
     return 0
