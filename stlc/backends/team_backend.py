@@ -32,7 +32,8 @@ from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
 _CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
-                     functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}))
+                     functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}),
+                     needs_signals=frozenset({"payload"}))
 
 
 def reads_payload(requirement: ir.Formula) -> bool:

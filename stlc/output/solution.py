@@ -24,6 +24,7 @@ class Verdict(enum.StrEnum):
     SATISFIED = "satisfied"
     VIOLATED = "violated"
     SOLVER_FAILED = "solver_failed"  # no dynamically feasible plan came out of the solver
+    INFEASIBLE = "infeasible"  # proved: no plan can satisfy the mission (``conflict``)
 
 
 @dataclass
@@ -101,12 +102,15 @@ class Solution:
     routes: dict[str, list[str]] = field(default_factory=dict)
     visits: list = field(default_factory=list)
     events: list = field(default_factory=list)
+    #: an infeasible mission: a minimal set of named specs that cannot hold together
+    conflict: list[str] = field(default_factory=list)
 
     def to_json_dict(self) -> dict:
         num = json_number
         return {
             "mission": self.mission,
             "status": str(self.status),
+            **({"conflict": list(self.conflict)} if self.status == Verdict.INFEASIBLE else {}),
             "robustness": {"exact": num(self.robustness_exact),
                            "smooth": num(self.robustness_smooth)},
             "specs": {
