@@ -6,6 +6,7 @@ trajectory has a higher robustness (brute force through the same discrete model)
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -106,11 +107,13 @@ def _random_plans(problem, count: int, seed: int) -> list[dict]:
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(f=formulas)
-def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f):
+@given(f=formulas, log=st.booleans())
+def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f, log):
+    """Both disjunction encodings: one binary per operand, and the logarithmic one."""
     req = nnf.normalize(f)
     problem = replace(base_problem, requirement=req)
-    sol, _ = run_chain(problem, [ExactMilp(time_limit=60)])
+    with _encoding(log):
+        sol, _ = run_chain(problem, [ExactMilp(time_limit=60)])
     assert sol.solver["return_status"] == "optimal"
     dt = problem.grid.dt
     rho = float(monitor.robustness(req, dt, sol.channels, problem.params))
@@ -125,12 +128,27 @@ def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f)
         assert other <= rho + 1e-6, (other, rho)
 
 
-def test_log_binaries_for_a_wide_disjunction(base_problem):
-    """An `eventually` over 7 samples uses ⌈log2 7⌉ = 3 binaries, not 7."""
+@contextlib.contextmanager
+def _encoding(log: bool):
+    old = os.environ.get("STLC_MILP_ONE_HOT")
+    os.environ["STLC_MILP_ONE_HOT"] = "2" if log else "1000000"
+    try:
+        yield
+    finally:
+        if old is None:
+            del os.environ["STLC_MILP_ONE_HOT"]
+        else:
+            os.environ["STLC_MILP_ONE_HOT"] = old
+
+
+@pytest.mark.parametrize("log, binaries", [(True, 3), (False, 7)])
+def test_log_binaries_for_a_wide_disjunction(base_problem, log, binaries):
+    """An `eventually` over 7 samples uses ⌈log2 7⌉ = 3 binaries (Gray code) or 7."""
     f = ir.Eventually(0.0, 3.0, _pred("d1.pos.x", True, 1.0))
     problem = replace(base_problem, requirement=f)
-    sol, _ = run_chain(problem, [ExactMilp()])
-    assert sol.problem_size["binaries"] == 3
+    with _encoding(log):
+        sol, _ = run_chain(problem, [ExactMilp()])
+    assert sol.problem_size["binaries"] == binaries
     # by hand: from rest with |v| ≤ 1 m/s, |a| ≤ 2 m/s²: 0.5 s at 2 m/s² (0.25 m, 1 m/s),
     # then 2.5 s at 1 m/s: x(3 s) = 2.75 m, so the margin of x ≥ 1 m is 1.75 m
     assert abs(sol.solver["objective"] - 1.75) < 1e-9

@@ -30,7 +30,7 @@ from stlc.output.solution import Solution, Verdict
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
-TIME_LIMIT_S = 300.0  #: default wall-time limit of one MILP solve (a mission may set its own)
+TIME_LIMIT_S = 120.0  #: default wall-time limit of one MILP solve (a mission may set its own)
 
 HIGHS_STATUS_MAP = {
     "Optimal": SolverStatus.OPTIMAL,
@@ -58,6 +58,7 @@ class Lowered:
     encoder: Encoder
     build_s: float
     terms: dict[str, Term] = field(default_factory=dict)
+    box: dict = field(default_factory=dict)
 
 
 def planned_channels(problem: PlanningProblem, relaxed: bool = False) -> set[str]:
@@ -68,7 +69,40 @@ def planned_channels(problem: PlanningProblem, relaxed: bool = False) -> set[str
     return out
 
 
-def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None) -> Lowered:
+def invariant_box(problem: PlanningProblem) -> dict[str, tuple[float, float]]:
+    """Channel → [lo, hi] that every plan with robustness ≥ 0 keeps at every sample: the
+    bounds of a top-level conjunct ``always[0, T] (s ≥ c and …)`` over the whole grid.  A
+    plan outside has a negative robustness, so restricting to the box loses no plan that
+    could beat a non-negative optimum (``ExactMilp`` solves again without it otherwise)."""
+    req = problem.requirement
+    parts = req.args if isinstance(req, ir.And) else (req,)
+    out: dict[str, tuple[float, float]] = {}
+    for g in parts:
+        if not (isinstance(g, ir.Always) and g.lo == 0
+                and problem.grid.window(g.lo, g.hi)[1] >= problem.grid.n - 1):
+            continue
+        body = g.arg.args if isinstance(g.arg, ir.And) else (g.arg,)
+        for p in body:
+            if not isinstance(p, ir.Pred):
+                continue
+            try:
+                coefs, c = affine(p.expr, problem.params, p)
+            except NotLinear:
+                continue
+            if len(coefs) != 1:
+                continue
+            (sig, a), = coefs.items()
+            lo, hi = out.get(sig, (-INF, INF))
+            if a > 0:
+                lo = max(lo, -c / a)
+            elif a < 0:
+                hi = min(hi, -c / a)
+            out[sig] = (lo, hi)
+    return out
+
+
+def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
+          box: dict[str, tuple[float, float]] | None = None) -> Lowered:
     """The MILP of ``problem``'s vehicles with each formula of ``formulas`` encoded at
     sample 0 (``terms``); ``lins`` maps a vehicle to its (states, inputs, A, B, bounds, x0)
     (default: the vehicle's own linear model)."""
@@ -85,6 +119,14 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None) 
             a, b = linear_model(v)
             states, inputs = vm.state_channels(v), vm.input_channels(v)
             bounds, x0 = vm.bounds(v), problem.start_states.get(v.name, vm.initial_state(v))
+        if box:
+            from dataclasses import replace
+
+            lo_, hi_ = np.array(bounds.x_lo, float), np.array(bounds.x_hi, float)
+            for i, c in enumerate(states):
+                if c in box and box[c][0] <= x0[i] <= box[c][1]:
+                    lo_[i], hi_[i] = max(lo_[i], box[c][0]), min(hi_[i], box[c][1])
+            bounds = replace(bounds, x_lo=lo_, x_hi=hi_)
         lvs.append(linear_vehicle(m, v.name, states, inputs, a, b, bounds, x0, grid.dt,
                                   grid.n, discrete))
     index = {}
@@ -148,7 +190,9 @@ class ExactMilp(Backend):
         return out + nonlinear_predicates(problem, problem.requirement)
 
     def lower(self, problem: PlanningProblem):
-        low = build(problem, {"requirement": problem.requirement})
+        box = invariant_box(problem)
+        low = build(problem, {"requirement": problem.requirement}, box=box)
+        low.box = box
         return low, low
 
     def _limit(self, problem: PlanningProblem) -> float:
@@ -158,9 +202,41 @@ class ExactMilp(Backend):
         return float(t)
 
     def solve(self, low: Lowered, problem: PlanningProblem):
-        cost = {low.top: -1.0} if low.top >= 0 else {}
-        h = Highs(low.milp, cost, time_limit=self._limit(problem))
-        return h.solve()
+        """Two phases on one model: a plan with ρ̂ ≥ κ first (a feasibility MILP, usually
+        far faster than the optimisation; ``Infeasible`` here proves no plan reaches κ),
+        then ρ̂ maximised from it as a MIP start.  Inside the invariant box a negative
+        optimum proves nothing, so then the whole problem is solved again."""
+        t0 = time.perf_counter()
+        limit = self._limit(problem)
+        res = self._two_phase(low, problem, limit)
+        if low.box and not (res.x is not None and -res.objective >= 0):
+            full = build(problem, {"requirement": problem.requirement})
+            left = limit - (time.perf_counter() - t0)
+            res2 = self._two_phase(full, problem, max(left, 1.0))
+            low.milp, low.vehicles, low.top = full.milp, full.vehicles, full.top
+            res2.wall_s += res.wall_s
+            return res2
+        return res
+
+    def _two_phase(self, low: Lowered, problem: PlanningProblem, limit: float):
+        if low.top < 0:
+            return Highs(low.milp, {}, time_limit=limit).solve()
+        t0 = time.perf_counter()
+        h = Highs(low.milp, {}, time_limit=limit)
+        kappa_lo = max(low.milp.lo[low.top], problem.threshold)
+        h.set_col_bounds(low.top, kappa_lo, low.milp.hi[low.top])
+        first = h.solve()
+        self.phases = [("feasibility", first.status, first.wall_s)]
+        h = Highs(low.milp, {low.top: -1.0},
+                  time_limit=max(limit - (time.perf_counter() - t0), 1.0))
+        if first.x is not None:
+            h.start(first.x)
+        res = h.solve()
+        self.phases.append(("optimisation", res.status, res.wall_s))
+        res.wall_s += first.wall_s
+        if res.x is None and first.x is not None:
+            res.x, res.objective = first.x, -float(first.x[low.top])
+        return res
 
     def invert(self, res, low: Lowered, problem: PlanningProblem) -> Solution:
         n = problem.grid.n
@@ -195,6 +271,8 @@ class ExactMilp(Backend):
                     "objective": rho, "bound": bound,
                     "gap": None if status.converged else _gap(rho, bound),
                     "nodes": res.nodes, "iterations": res.nodes,
+                    "phases": [{"phase": p, "status": st, "wall_s": w}
+                               for p, st, w in getattr(self, "phases", [])],
                     "max_state_deviation": dev},
             smoothing={"method": "exact (MILP)", "lambda": problem.smoothing.lam,
                        "lambda_final": problem.smoothing.lam,

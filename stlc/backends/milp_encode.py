@@ -31,11 +31,15 @@ repeated) is encoded once.  A predicate that is not affine in the planned channe
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 
 from stlc.backends.milp_model import INF, Milp
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
+
+
+ONE_HOT_MAX = 1 << 30  #: measured: HiGHS solves these faster one-hot (README)
 
 
 class NotLinear(ValueError):
@@ -136,6 +140,9 @@ class Encoder:
         self.memo: dict = {}
         self.affine_memo: dict = {}
         self.binaries = 0
+        #: disjunctions of at most this many operands get one binary per operand, wider
+        #: ones the logarithmic encoding (``STLC_MILP_ONE_HOT`` overrides, for measuring)
+        self.one_hot = int(os.environ.get("STLC_MILP_ONE_HOT", ONE_HOT_MAX))
 
     # ----------------------------------------------------------------- combinators
 
@@ -190,9 +197,11 @@ class Encoder:
                              "the vehicle finite velocity and input bounds)")
         r = self._new(lo, hi)
         mcount = len(lin)
-        lam = [self.m.var(0.0, 1.0) for _ in range(mcount)]
+        direct = mcount <= self.one_hot
+        lam = [self.m.var(0.0, 1.0, integer=direct) for _ in range(mcount)]
         self.m.row({j: 1.0 for j in lam}, 1.0, 1.0)
-        nbits = max(1, (mcount - 1).bit_length())
+        nbits = 0 if direct else max(1, (mcount - 1).bit_length())
+        self.binaries += mcount if direct else 0
         codes = [gray(i) for i in range(mcount)]
         for bit in range(nbits):
             b = self.m.var(0.0, 1.0, integer=True)
