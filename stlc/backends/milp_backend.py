@@ -26,7 +26,7 @@ from stlc.backends.base import ALL_NODES, Backend, Capabilities, SolverStatus, u
 from stlc.backends.milp_encode import Encoder, NotLinear, Term, affine
 from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_vehicle
 from stlc.diagnostics import Diagnostic
-from stlc.output.solution import Solution, Verdict
+from stlc.planning.solution import Solution, Verdict
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
