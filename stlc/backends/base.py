@@ -125,7 +125,8 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
     for v in problem.vehicles():
         vm = vehicles.model_of(v)
         kind = vm.kind
-        if cap.linear_dynamics_only and getattr(vm, "linear_model", None) is None:
+        linear = getattr(vm, "linear_model", None)
+        if cap.linear_dynamics_only and (linear is None or linear(v) is None):
             out.append(Diagnostic("STL401", f"{who} cannot plan a `{kind}` vehicle "
                                   f"(`{v.name}`): its dynamics are not linear", v.span,
                                   "vehicles with linear dynamics: point_mass"))

@@ -18,6 +18,10 @@ proof:
   speed norm, payload, an input) is replaced by ``true``: the formula is in negation normal
   form, hence monotone in its predicates, so this can only raise the robustness.
 
+Linear vehicles planned with their zero-order-hold model (the point mass; the NLP's RK4 is
+exact on it) need no relaxation: the proof uses their own discrete dynamics and every
+predicate affine in their states and inputs.
+
 Only HiGHS's own ``Infeasible`` counts as a proof (a time limit proves nothing: the verdict
 stays what it was).  The conflict is then a minimal set of the named specs the mission
 requires (a deletion filter: drop a spec, keep it out if the rest is still infeasible), with
@@ -44,6 +48,15 @@ SOLVE_LIMIT_S = 15.0
 TOTAL_LIMIT_S = 40.0
 MAX_CELLS = 400_000  #: samples × vehicles × formula size beyond which no proof is attempted
 REQUIRE = "require"
+
+
+def exact_model(problem) -> bool:
+    """Every vehicle is linear and planned with its zero-order-hold model (the NLP's RK4 is
+    exact on it): the proof may use the vehicles' own discrete dynamics, not a relaxation."""
+    from stlc.backends.milp_backend import linear_model
+
+    return (str(problem.mission.options.get("integrator", "rk4")) == "rk4"
+            and all(linear_model(v) is not None for v in problem.vehicles()))
 
 
 def relaxed_vehicle(problem):
@@ -132,10 +145,15 @@ class _Checker:
 def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
     """Prove that no plan satisfies ``problem`` and name a minimal conflict; on a proof,
     mark ``sol`` infeasible (status, conflict, STL504) and return True."""
-    lins = relaxed_vehicle(problem)
-    if lins is None:
+    exact = exact_model(problem)
+    lins = None if exact else relaxed_vehicle(problem)
+    if lins is None and not exact:
         return False
     keep = _kept_channels(problem)
+    if exact:
+        from stlc.backends.milp_backend import planned_channels
+
+        keep |= planned_channels(problem)
     restrict = lambda f: ir.restrict(f, lambda s: s in keep)  # noqa: E731
     req = restrict(problem.requirement)
     size = sum(1 for _ in ir.nodes(problem.requirement))
@@ -165,11 +183,12 @@ def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
             elements = rest
         elif verdict is None:
             minimal = False
-    _mark(problem, sol, elements, minimal, time.perf_counter() - t0, quiet)
+    _mark(problem, sol, elements, minimal, time.perf_counter() - t0, quiet, exact)
     return True
 
 
-def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: bool) -> None:
+def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: bool,
+          exact: bool = False) -> None:
     m = problem.mission
     named = [f"`{c}`" for c in conflict if c != REQUIRE]
     kappa = problem.threshold
@@ -186,9 +205,10 @@ def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: 
     sol.conflict = list(conflict)
     sol.solver["infeasibility"] = {
         "proved": True, "conflict": list(conflict), "minimal": minimal, "wall_s": wall,
-        "relaxation": "double integrator per vehicle with independent position and velocity "
-                      "accelerations in the vehicle's acceleration box, speed box; predicates "
-                      "on other signals replaced by true"}
+        "relaxation": ("none: the vehicles' own linear discrete dynamics (exact)" if exact else
+                       "double integrator per vehicle with independent position and velocity "
+                       "accelerations in the vehicle's acceleration box, speed box; "
+                       "predicates on other signals replaced by true")}
     sol.notes.insert(0, f"no plan exists: {what} (proved by a MILP over a relaxation that "
                      "contains every trajectory the vehicles can fly)")
     sol.diagnostics.append(Diagnostic(

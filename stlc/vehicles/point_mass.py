@@ -75,15 +75,6 @@ class PointMassModel:
               ) -> tuple[np.ndarray, np.ndarray]:
         return np.vstack([P, V]), A
 
-    def linear_model(self, v: PointMass) -> tuple[np.ndarray, np.ndarray]:
-        """The continuous-time dynamics ẋ = A x + B u (a double integrator per axis, state
-        (p, v), input a): the point mass is a linear vehicle (an exact MILP can plan it)."""
-        a = np.zeros((6, 6))
-        a[POS, VEL] = np.eye(3)
-        b = np.zeros((6, 3))
-        b[VEL, :] = np.eye(3)
-        return a, b
-
     def kinematic_envelope(self, v: PointMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Sound bounds of every flyable trajectory: per-axis speed bound, acceleration
         interval (lo, hi) — here the declared bounds themselves."""
