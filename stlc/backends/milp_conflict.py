@@ -99,6 +99,27 @@ def _kept_channels(problem) -> set[str]:
     return out
 
 
+def _drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
+    """``f`` with every predicate that is not affine (a distance, a norm) made to read a
+    signal no relaxation keeps, so that ``restrict`` replaces it by ``true`` (sound: the
+    formula is in NNF)."""
+    from stlc.backends.milp_encode import affine
+
+    hit = memo.get(id(f))
+    if hit is not None:
+        return hit[1]
+    if isinstance(f, ir.Pred):
+        try:
+            affine(f.expr, params, f)
+            out = f
+        except (NotLinear, ValueError):
+            out = ir.Pred(ir.Sig("__nonlinear"), f.label, f.span)
+    else:
+        out = ir.map_children(f, lambda g: _drop_nonlinear(g, params, memo))
+    memo[id(f)] = (f, out)
+    return out
+
+
 def required_specs(problem) -> list[str]:
     """The named specs the requirement requires (a conjunct of it, or all of a spec's
     conjuncts are conjuncts of it)."""
@@ -154,7 +175,8 @@ def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
         from stlc.backends.milp_backend import planned_channels
 
         keep |= planned_channels(problem)
-    restrict = lambda f: ir.restrict(f, lambda s: s in keep)  # noqa: E731
+    restrict = lambda f: ir.restrict(_drop_nonlinear(f, problem.params, {}),  # noqa: E731
+                                     lambda s: s in keep)
     req = restrict(problem.requirement)
     size = sum(1 for _ in ir.nodes(problem.requirement))
     if problem.grid.n * len(problem.team) * size > MAX_CELLS:

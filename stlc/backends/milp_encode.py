@@ -103,9 +103,30 @@ def affine(e: ir.Expr, params: dict[str, float], pred: ir.Pred) -> Affine:
             if op == "^" and not la[0] and not lb[0]:
                 return {}, la[1] ** lb[1]
             raise NotLinear(pred, f"`{op}` of two signals is not linear")
-        case ir.Call(fn, _):
-            raise NotLinear(pred, f"`{fn}` is not linear in the state")
+        case ir.Call(fn, args):
+            vals = [affine(a, params, pred) for a in args]
+            if any(v[0] for v in vals):
+                raise NotLinear(pred, f"`{fn}` is not linear in the state")
+            return {}, _fold(fn, [v[1] for v in vals])  # of constants: a constant
     raise NotLinear(pred, f"unsupported expression {e!r}")
+
+
+def _fold(fn: str, xs: list[float]) -> float:
+    """A function of constants (e.g. ``cos`` of a human's nominal heading)."""
+    one = {"abs": abs, "sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "exp": math.exp,
+           "log": math.log}
+    if fn in one and len(xs) == 1:
+        return float(one[fn](xs[0]))
+    if fn == "min":
+        return min(xs)
+    if fn == "max":
+        return max(xs)
+    if fn == "atan2" and len(xs) == 2:
+        return math.atan2(xs[0], xs[1])
+    if fn == "angdiff" and len(xs) == 2:
+        d = xs[0] - xs[1]
+        return math.atan2(math.sin(d), math.cos(d))  # as the exact monitor
+    raise ValueError(f"cannot evaluate `{fn}`")
 
 
 # --------------------------------------------------------------------------- the encoder
