@@ -214,6 +214,16 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
         "leave in time, more payload needed than capacity and refills allow, no station.",
         "capacity = 1 for each of 2 drones, 7 targets, no station",
         "capacity = 4 for each of 2 drones, or a station to refill"),
+    "STL504": (
+        "No plan can satisfy the mission: HiGHS proved a relaxation of it infeasible (every "
+        "vehicle a double integrator in its acceleration and speed box, predicates on other "
+        "signals dropped), so the named specs conflict — e.g. be in two disjoint regions at "
+        "once, or reach a place farther than the vehicle can fly in the time allowed.  "
+        "Unlike STL501 (no plan *found*) this is a proof; the report says \"No plan exists\" "
+        "(exit 3).  Relax one of the specs named.",
+        "require eventually[0, 2] (uav1.pos in a) and always[0, 5] (uav1.pos in b)  # a, b "
+        "disjoint",
+        "require eventually[0, 2] (uav1.pos in a) and always[3, 5] (uav1.pos in b)"),
     "STL601": (
         "A file cannot be read (no such file, a folder, no permission).",
         "stlc check misson.stl", "stlc check mission.stl"),
