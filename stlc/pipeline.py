@@ -131,11 +131,51 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
+    if _falls_back(chain, sol):
+        sol = _fallback(problem, sol, quiet)
     if sol.status != "satisfied":
         from stlc.backends.milp_conflict import explain_infeasible
 
         explain_infeasible(problem, sol, quiet=quiet)
     return problem, sol
+
+
+def _falls_back(chain, sol) -> bool:
+    """An exact chain chosen by capability that stopped without a satisfying plan and
+    without a proof of its optimum (a time limit, no incumbent) hands the problem to the
+    general chain: a point-mass mission too large for the MILP's budget is still planned
+    (locally) as before the exact backend existed."""
+    return (chain.name == "milp" and not chain.forced and sol.status != "satisfied"
+            and not sol.solver.get("converged", False))
+
+
+def _fallback(problem, first, quiet: bool):
+    """Plan ``problem`` with the ``nlp`` chain after an unconverged exact chain; keep the
+    verified plan with the larger exact robustness (ties: the exact chain's).  Both plans
+    are judged by the exact monitor; the record says what ran."""
+    from stlc.backends.base import run_chain
+    from stlc.backends.select import chain_record, select
+    from stlc.planning.verify import verify
+
+    chain = select(problem, "nlp", quiet)
+    if not quiet:
+        print(f"{problem.mission.name}: the exact MILP stopped without a satisfying plan "
+              f"({first.solver.get('return_status')}); falling back to chain `nlp`: "
+              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
+    sol, sols = run_chain(problem, chain.backends)
+    sol.solver["chain"] = {**chain_record(chain, sols), "fallback_from": first.solver["chain"]}
+    t0 = time.perf_counter()
+    verify(problem, sol)
+    sol.timing["verify_s"] = time.perf_counter() - t0
+    a, b = first.robustness_exact, sol.robustness_exact
+    if b == b and not (a == a and a >= b):  # NaN-safe: the NLP's plan is strictly better
+        sol.notes.append(f"the exact MILP stopped without a satisfying plan "
+                         f"({first.solver.get('return_status')}); this plan is the `nlp` "
+                         f"chain's (local, not a global optimum)")
+        return sol
+    first.notes.append("the `nlp` chain, tried after the MILP stopped, found no better plan "
+                       f"(exact robustness {b:.6g})")
+    return first
 
 
 def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:

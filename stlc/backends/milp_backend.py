@@ -30,7 +30,8 @@ from stlc.planning.solution import Solution, Verdict
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
-TIME_LIMIT_S = 120.0  #: default wall-time limit of one MILP solve (a mission may set its own)
+TIME_LIMIT_S = 60.0  #: default wall-time limit of one MILP solve (a mission may set its own); an
+#: unconverged unforced solve then falls back to the `nlp` chain (``pipeline._fallback``)
 
 HIGHS_STATUS_MAP = {
     "Optimal": SolverStatus.OPTIMAL,
