@@ -18,12 +18,14 @@ import contextlib
 import math
 import os
 import sys
+import time
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
 EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
+_STARTED = time.monotonic()  # `--time-limit` counts from here (the imports before are ~0.3 s)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -46,6 +48,8 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--mission", metavar="NAME", default=None)
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
+    k.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
+                   help="stop planning after SECONDS and write the best verified plan")
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -60,6 +64,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="DRONE fails at T s (needs --backup)")
     s.add_argument("--backup", metavar="DRONE", default=None,
                    help="the declared drone that takes over after --fail")
+    s.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
+                   help="stop planning the nominal plan after SECONDS (best verified plan)")
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
@@ -79,6 +85,13 @@ def _number(text: str, what: str) -> float:
         raise argparse.ArgumentTypeError(f"{what} {text!r} is not a number") from None
     if not math.isfinite(x):
         raise argparse.ArgumentTypeError(f"{what} {text!r} is not finite")
+    return x
+
+
+def _seconds(text: str) -> float:
+    x = _number(text, "time limit")
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"time limit {text!r} must be positive (seconds)")
     return x
 
 
@@ -199,7 +212,7 @@ def cmd_compile(args) -> int:
     from stlc.pipeline import compile_file
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
-                        risk=not args.no_risk)
+                        risk=not args.no_risk, time_limit=args.time_limit, started=_STARTED)
 
 
 def cmd_simulate(args) -> int:
@@ -208,7 +221,8 @@ def cmd_simulate(args) -> int:
 
     fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None
     return simulate_file(args.file, out=args.out, mission=args.mission,
-                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet)
+                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
+                         time_limit=args.time_limit)
 
 
 def cmd_risk(args) -> int:

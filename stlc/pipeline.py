@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from stlc import deadline
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
@@ -130,13 +131,68 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
 
     problem = from_mission(program, mission, step=step, horizon=horizon)
     chain = backend_chain(problem, quiet)
-    sol, sols = run_chain(problem, chain)
+    try:
+        sol, sols = run_chain(problem, chain)
+    except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
+        deadline.caught()
+        sol, sols = _fallback(problem), []
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
+    _time_limited(sol)
     return problem, sol
+
+
+def _fallback(problem):
+    from stlc.planning.fallback import hover_solution
+
+    return hover_solution(problem, f"the time limit of {deadline.limit():g} s ran out "
+                          "while the problem was being built")
+
+
+def _overrun(program: model.Program, m: model.Mission, outdir: str, code: int, quiet: bool):
+    """The watchdog's writer (``stlc.deadline``): the fallback plan, verified and written
+    from the watchdog thread while the planning thread is stuck in a C call."""
+    def write() -> int:
+        from stlc.output import compile as outputs
+        from stlc.planning.problem import from_mission
+        from stlc.planning.verify import verify
+
+        problem = from_mission(program, m)
+        sol = _fallback(problem)
+        verify(problem, sol)
+        _time_limited(sol)
+        outputs.write_outputs(outdir, program, m, sol)
+        if not quiet or sol.status != "satisfied":
+            outputs.summary(sol, outdir)
+        return code if sol.status == "satisfied" else outputs.EXIT_UNSAT
+    return write
+
+
+def _time_limited(sol) -> None:
+    """The run's time limit (``stlc.deadline``) stopped the search: the plan is the best
+    verified one found so far, not converged; one that does not satisfy is ``stopped``."""
+    stages = sol.solver.get("stages") or []
+    if not deadline.active() or not (deadline.solve_expired() or
+                                     any(s.get("status") == "max_time" for s in stages)):
+        return
+    limit = deadline.limit()
+    sol.solver.update(stopped_by="time_limit", time_limit_s=limit, converged=False)
+    sol.notes.append(f"stopped by the time limit of {limit:g} s: this is the best verified "
+                     "plan found so far (the solver did not converge)")
+    if sol.status != "satisfied":
+        sol.status = "stopped"
+
+
+def mission_time_limit(m: model.Mission, cli: float | None, share: float) -> float | None:
+    """The time limit of one mission: ``--time-limit`` (shared by the missions still to
+    run) or else the mission's ``time_limit`` field; None = no limit."""
+    if cli is not None:
+        return share
+    lim = m.options.get("time_limit")
+    return None if lim is None else float(lim)
 
 
 def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
@@ -169,11 +225,15 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 
 
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
-                 quiet: bool = False, risk: bool = True) -> int:
-    """``stlc compile``: every selected mission planned, verified, assessed, written."""
+                 quiet: bool = False, risk: bool = True, time_limit: float | None = None,
+                 started: float | None = None) -> int:
+    """``stlc compile``: every selected mission planned, verified, assessed, written.
+    ``time_limit`` (s, from the start of the command; shared by the missions in turn)
+    stops the search and writes the best verified plan (``stlc.deadline``)."""
     from stlc.output import compile as outputs
 
     t0 = time.perf_counter()
+    start = time.monotonic() if started is None else started
     loaded = load(path)
     program = loaded.program
     missions = select_missions(path, program, mission)
@@ -189,12 +249,19 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
             preflight(out, span)
         preflight(outdirs[m.name], span)
     code = outputs.EXIT_OK
-    for m in missions:
+    for i, m in enumerate(missions):
         t1 = time.perf_counter()
-        _, sol = plan(program, m, quiet=quiet)
-        sol.timing.update(loaded.timing)
-        if risk and m.risk is not None:
-            assess_risk(program, m, sol)
+        share = None if time_limit is None else \
+            (time_limit - (time.monotonic() - start)) / (len(missions) - i)
+        with deadline.limited(mission_time_limit(m, time_limit, share),
+                              overrun=_overrun(program, m, outdirs[m.name], code, quiet)):
+            _, sol = plan(program, m, quiet=quiet)
+            sol.timing.update(loaded.timing)
+            if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
+                sol.notes.append("the risk cases were not assessed: the time limit ran out "
+                                 "(`stlc risk` assesses them on trajectory.csv)")
+            elif risk and m.risk is not None:
+                assess_risk(program, m, sol)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
         outputs.write_outputs(outdir, program, m, sol)
@@ -311,7 +378,7 @@ def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfi
 
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
-                  quiet: bool = False) -> int:
+                  quiet: bool = False, time_limit: float | None = None) -> int:
     """``stlc simulate``: compile the mission, fly it through its events (disturbances with
     event-triggered replanning, or a drone failure with a backup's takeover), verify the
     executed trajectory and write the compile outputs plus ``replan.json`` and
@@ -336,7 +403,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     cfg = m.replan or model.ReplanConfig()
     if dist:
         _check_kept(program, m, cfg)
-    problem, sol = plan(program, m, quiet=quiet)
+    # the time limit bounds planning the nominal plan (replans have their budget t_c)
+    with deadline.limited(mission_time_limit(m, time_limit, time_limit or 0.0),
+                          start=time.monotonic() - (time.perf_counter() - t0)):
+        problem, sol = plan(program, m, quiet=quiet)
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
     try:

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from stlc import vehicles
+from stlc import deadline, vehicles
 from stlc.backends import choices, derivatives
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
@@ -385,8 +385,7 @@ class Progress(ca.Callback):
         ca.Callback.__init__(self)
         self.nx, self.ng, self.np_ = nx, ng, np_
         self.root_fn, self.label, self.every, self.stream = root_fn, label, every, stream
-        self.quiet = quiet
-        self.it = 0
+        self.quiet, self.it = quiet, 0
         self.limit = 10**9  # stop the current solve after this many iterations
         self.p = np.zeros(np_)
         #: anytime tracking: ``verify(x, g)`` returns the exact robustness of a dynamically
@@ -404,10 +403,9 @@ class Progress(ca.Callback):
     def reset(self) -> None:
         self.it = 0
         self.best_x: np.ndarray | None = None
-        self.best_exact = -np.inf
-        self.best_score = -np.inf
+        self.best_exact = self.best_score = -np.inf
         self.best_it = 0
-        self.t_verify = 0.0
+        self.t_verify, self.timed_out = 0.0, False
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -443,8 +441,10 @@ class Progress(ca.Callback):
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
             ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"
+            ex += deadline.progress_note()
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
                   f"smooth {rho:+.4f}  exact {ex}", file=self.stream or sys.stderr, flush=True)
         self.it += 1
         stagnant = self.best_exact >= self.kappa and self.it - self.best_it > self.patience
-        return [1 if self.it >= self.limit or stagnant else 0]
+        self.timed_out = deadline.solve_expired()  # the run's time limit (stlc.deadline)
+        return [1 if self.it >= self.limit or stagnant or self.timed_out else 0]

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-STATUSES = ("satisfied", "violated", "solver_failed")
+STATUSES = ("satisfied", "violated", "solver_failed", "stopped")
 
 
 class Verdict(enum.StrEnum):
@@ -24,6 +24,7 @@ class Verdict(enum.StrEnum):
     SATISFIED = "satisfied"
     VIOLATED = "violated"
     SOLVER_FAILED = "solver_failed"  # no dynamically feasible plan came out of the solver
+    STOPPED = "stopped"  # the run's time limit ended the search before a satisfying plan
 
 
 @dataclass
@@ -71,7 +72,7 @@ class Window:
 @dataclass
 class Solution:
     mission: str
-    status: str  # satisfied | violated | solver_failed
+    status: str  # satisfied | violated | solver_failed | stopped
     robustness_exact: float
     robustness_smooth: float
     specs: dict[str, SpecResult]

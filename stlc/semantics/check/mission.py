@@ -21,6 +21,7 @@ MISSION_FIELDS = {
     "vehicles": False, "team": False, "vehicle": False, "horizon": True, "step": True,
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
+    "time_limit": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
@@ -113,6 +114,9 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
         mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT, scope)
         if mi is not None:
             options["max_iter"] = mi
+    time_limit = ck.num(f, "time_limit", units.TIME, positive=True, scope=scope)
+    if time_limit is not None:  # `--time-limit` overrides it (stlc.deadline)
+        options["time_limit"] = time_limit
     compares = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "compare"]
     options["compare"] = [(c.name or f"variant{i + 1}", _objective(ck, c, scope))
                           for i, c in enumerate(compares)]
