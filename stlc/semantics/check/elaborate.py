@@ -317,6 +317,7 @@ def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
         "speed": scal(speed, units.SPEED, f"{n}.speed"),
         "horizontal_speed": scal(hspeed, units.SPEED, f"{n}.horizontal_speed"),
         "course": scal(ir.Call("atan2", (vy, vx)), units.ANGLE, f"{n}.course"),
+        "radius": Num(np.asarray(float(v.radius)), units.LENGTH),  # a constant
     }
     if model_of(v).kind == "multirotor":
         k = len(v.rotors)
