@@ -36,6 +36,7 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="parse and type-check .stl files")
     c.add_argument("files", nargs="+", metavar="FILE")
     c.add_argument("--format", choices=("text", "json"), default="text")
+    c.add_argument("--deny-warnings", action="store_true", help="warnings are errors")
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE")
@@ -50,6 +51,8 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
     k.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="stop planning after SECONDS and write the best verified plan")
+    k.add_argument("--deny-warnings", action="store_true", help="warnings are errors "
+                   "(exit 1 before planning; a plan's own warnings: exit 3)")
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -167,22 +170,29 @@ def _sources(diags) -> dict[str, str]:
 def _print_diags(e: StlcError, sources: dict[str, str] | None) -> None:
     srcs = sources if sources is not None else _sources(e.diagnostics)
     print(render_all(e.diagnostics, srcs), file=sys.stderr)
-    n = len(e.diagnostics)
-    print(f"stlc: {n} error{'s' if n != 1 else ''}", file=sys.stderr)
+    n = sum(1 for d in e.diagnostics if d.severity == "error")
+    w = len(e.diagnostics) - n
+    print(f"stlc: {n} error{'s' if n != 1 else ''}" if n or not w else
+          f"stlc: {w} warning{'s' if w != 1 else ''}", file=sys.stderr)
 
 
 def cmd_check(args) -> int:
     from stlc.pipeline import check_paths
 
+    from dataclasses import replace
+
     diags, sources = check_paths(args.files)
+    if args.deny_warnings:
+        diags = [replace(d, severity="error") for d in diags]
+    errors = [d for d in diags if d.severity == "error"]
     if args.format == "json":
         print(to_json(diags))
     elif diags:
         _print_diags(StlcError(diags), sources)
-    else:
+    if args.format != "json" and not errors:
         for f in args.files:
             print(f"{f}: ok")
-    return EXIT_INPUT if diags else EXIT_OK
+    return EXIT_INPUT if errors else EXIT_OK
 
 
 def cmd_monitor(args) -> int:
@@ -212,7 +222,8 @@ def cmd_compile(args) -> int:
     from stlc.pipeline import compile_file
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
-                        risk=not args.no_risk, time_limit=args.time_limit, started=_STARTED)
+                        risk=not args.no_risk, time_limit=args.time_limit, started=_STARTED,
+                        deny_warnings=args.deny_warnings)
 
 
 def cmd_simulate(args) -> int:

@@ -90,6 +90,11 @@ CODES: dict[str, str] = {
     "STL604": "trace time column is not uniform",
     # output files
     "STL605": "cannot write the output directory",
+    # warnings (`stlc.semantics.lint`, `stlc.analysis.vacuity`): exit 0 unless --deny-warnings
+    "STLW01": "a binary operator's right operand is outside the temporal operator before it",
+    "STLW02": "an implication holds only vacuously on the plan",
+    "STLW03": "a region lies outside the workspace",
+    "STLW04": "declared and never used",
 }
 
 

@@ -27,16 +27,49 @@ from stlc.semantics.check import check
 class Loaded:
     program: model.Program
     timing: dict[str, float] = field(default_factory=dict)
+    warnings: list[Diagnostic] = field(default_factory=list)  # STLWxx (stlc.semantics.lint)
 
 
 def load(path: str) -> Loaded:
     """Parse and check a file; raises ``StlcError`` with every diagnostic."""
+    from stlc.semantics.lint import lint
+
     t0 = time.perf_counter()
     tree = parse_file(path)
     t1 = time.perf_counter()
     program = check(tree)
     t2 = time.perf_counter()
-    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1})
+    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1}, lint(tree, program))
+
+
+def warn(warnings: list[Diagnostic], deny: bool, sources: dict[str, str] | None = None) -> None:
+    """Print ``warnings`` (stderr); with ``deny`` (``--deny-warnings``) they are errors."""
+    from stlc.diagnostics import render_all
+
+    if not warnings:
+        return
+    if deny:
+        raise StlcError([replace(w, severity="error") for w in warnings])
+    if sources is None:
+        sources = {}
+        for f in {w.span.file for w in warnings if w.span.file}:
+            try:
+                with open(f, encoding="utf-8", errors="replace") as fh:
+                    sources[f] = fh.read().removeprefix("\ufeff")
+            except OSError:
+                pass
+    print(render_all(warnings, sources), file=sys.stderr)
+    n = len(warnings)
+    print(f"stlc: {n} warning{'s' if n != 1 else ''}", file=sys.stderr)
+
+
+def plan_warnings(problem, sol) -> list[Diagnostic]:
+    """Warnings about the plan itself: implications that hold only vacuously (STLW02)."""
+    from stlc.analysis.vacuity import vacuous
+
+    m = problem.mission
+    formulas = {m.name: m.requirement, **m.specs}
+    return vacuous(formulas, problem.grid.dt, sol.channels, problem.params, len(sol.times))
 
 
 def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
@@ -46,6 +79,7 @@ def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
     for p in paths:
         try:
             loaded = load(p)
+            diags.extend(loaded.warnings)
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
@@ -142,6 +176,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
     _time_limited(sol)
+    sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
 
 
@@ -226,7 +261,7 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
                  quiet: bool = False, risk: bool = True, time_limit: float | None = None,
-                 started: float | None = None) -> int:
+                 started: float | None = None, deny_warnings: bool = False) -> int:
     """``stlc compile``: every selected mission planned, verified, assessed, written.
     ``time_limit`` (s, from the start of the command; shared by the missions in turn)
     stops the search and writes the best verified plan (``stlc.deadline``)."""
@@ -237,6 +272,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     loaded = load(path)
     program = loaded.program
     missions = select_missions(path, program, mission)
+    warn(loaded.warnings, deny_warnings, {path: program.source})
     several = len(missions) > 1
     base = out if out is not None else "reports"
     outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
@@ -264,11 +300,18 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                 assess_risk(program, m, sol)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
+        found = list(sol.diagnostics)  # the plan's own warnings (STLW02)
+        sol.diagnostics[:0] = loaded.warnings  # the report lists the file's too
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
         if sol.status != "satisfied":
             code = outputs.EXIT_UNSAT
+        if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
+            warn([replace(w, severity="error") for w in found] if deny_warnings else found,
+                 False, {path: program.source})
+            if deny_warnings:
+                code = outputs.EXIT_UNSAT
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code

@@ -42,6 +42,7 @@ mission {name} {{
   vehicles = [p]
   horizon = {horizon:g} s
   step = 0.1 s
+  end = free
   spec go = {require}
   require go
   minimize -robustness

@@ -38,12 +38,15 @@ vehicle p : point_mass {
 """
 
 
-def mission_source(require: str, horizon: float, step: float = 0.1, name: str = "m") -> str:
+def mission_source(require: str, horizon: float, step: float = 0.1, name: str = "m",
+                   end: str = "free") -> str:
+    """A point-mass mission; the optima below are for a free end state (``end = free``)."""
     return POINT_MASS + f"""
 mission {name} {{
   vehicles = [p]
   horizon = {horizon:g} s
   step = {step:g} s
+  end = {end}
   spec goal = {require}
   require goal
   minimize -robustness
@@ -107,6 +110,39 @@ def test_known_optimal_robustness(tmp_path, name, require, horizon, optimum, goo
     assert sol.problem_size["samples"] == round(horizon / 0.1) + 1
     for key in ("build_s", "guess_s", "solve_s"):
         assert sol.timing[key] >= 0.0
+
+
+def _reach_at_rest(n: int = 30, dt: float = 0.1, v_end: float = 0.05) -> float:
+    """The farthest x_N of the point mass (|v| ≤ 1, |a| ≤ 2 per axis, zero-order hold) that
+    ends with |v_N| ≤ v_end: a linear program over the accelerations (scipy, independent of
+    stlc).  x_N = Σ_i a_i·dt²·(n − 1 − i + 1/2), v_k = dt·Σ_{i<k} a_i."""
+    from scipy.optimize import linprog
+
+    c = -np.array([dt * dt * (n - 1 - i + 0.5) for i in range(n)])
+    rows, rhs = [], []
+    for k in range(1, n + 1):
+        row = np.zeros(n)
+        row[:k] = dt
+        bound = v_end if k == n else 1.0
+        rows += [row, -row]
+        rhs += [bound, bound]
+    res = linprog(c, A_ub=np.array(rows), b_ub=rhs, bounds=[(-2, 2)] * n)
+    return float(-res.fun)
+
+
+def test_holdable_end_is_the_default(tmp_path):
+    """Without ``end = free`` the plan ends at rest (|v_N| ≤ 0.05 m/s): x ≥ 2 m by 3 s then
+    has the optimum x_N − 2 from the LP (2.5225 m: ρ* = 0.5225, not 0.75)."""
+    optimum = _reach_at_rest() - 2.0
+    assert abs(optimum - 0.5225) < 1e-6  # hand check: 0.25 + 2.025 + 0.2475 m
+    program = load_source(tmp_path, mission_source("eventually[0, 3] (p.pos.x >= 2 m)", 3.0,
+                                                   end="hover"))
+    _, sol = plan(program, program.missions["m"])
+    assert sol.status == "satisfied"
+    assert optimum - 0.03 <= sol.robustness_exact <= optimum + 1e-6
+    speed = np.sqrt(sum(sol.channels[f"p.vel.{a}"][-1] ** 2 for a in "xyz"))
+    assert sol.end_state["p"]["holdable"] and speed <= 0.05 * np.sqrt(3) + 1e-6
+    assert not any("cannot hold" in n for n in sol.notes)
 
 
 def test_impossible_mission_is_violated(tmp_path):
@@ -196,6 +232,9 @@ def test_handover_mission_plans_satisfying(handover_plans, handover_program, nam
         sol.robustness_exact, abs=1e-9)
     assert sol.problem_size["samples"] == round(17.0 / HANDOVER_STEPS[name]) + 1
     assert np.isfinite(sol.energy) and sol.energy > 0
+    # no warnings about the plan (STLW02) and its final state can be held
+    assert not [d for d in sol.diagnostics if d.code.startswith("STLW")]
+    assert all(e["holdable"] for e in sol.end_state.values()), sol.end_state
 
 
 # ------------------------------------------------------------------ dynamics of a plan

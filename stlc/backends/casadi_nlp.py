@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import deadline, vehicles
-from stlc.backends import choices, derivatives
+from stlc.backends import choices, derivatives, flyable
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
@@ -254,9 +254,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     g_list, lbg, ubg = [], [], []
     lbx = np.full(w.numel(), -np.inf)
     ubx = np.full(w.numel(), np.inf)
-    energy = ca.SX(0)
-    fwd = ca.SX(0)
-    reg = ca.SX(0)
+    energy, fwd, reg = ca.SX(0), ca.SX(0), ca.SX(0)
     for L in layouts:
         v = L.vehicle
         vm = vehicles.model_of(v)
@@ -286,6 +284,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
             vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)
             fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
     n_dyn = sum(x.numel() for x in g_list)
+    fly = flyable.add_rows(g_list, lbg, ubg, mission, layouts, wt, n)  # holdable end, heading
     cons, lb_r, ub_r = lowered.constraints()
     g_list.append(cons)
     lbg.append(lb_r)
@@ -295,7 +294,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     lbg.append(np.array([-np.inf]))
     ubg.append(np.array([np.inf]))
     g = ca.vertcat(*g_list)
-    obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg
+    obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg + fly
     nlp = {"x": w, "p": p, "f": obj, "g": g}
     opts = dict(IPOPT_DEFAULTS)
     # developer knob: extra solver options as JSON, e.g. STLC_IPOPT='{"ipopt.print_level": 5}'

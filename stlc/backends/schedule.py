@@ -103,6 +103,8 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
         vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
         vlo[:, 0] = vhi[:, 0] = vel0
+        if mission.options.get("end", "hover") != "free":  # a holdable end (flyable.py)
+            vlo[:, -1] = vhi[:, -1] = 0.0
         syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
         lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
         ubx += [phi_.T.ravel(), vhi.T.ravel(), np.tile(amax, N)]

@@ -102,6 +102,8 @@ class Solution:
     routes: dict[str, list[str]] = field(default_factory=dict)
     visits: list = field(default_factory=list)
     events: list = field(default_factory=list)
+    #: per vehicle: can it hold the final state (``stlc.planning.holdable``)
+    end_state: dict[str, dict] = field(default_factory=dict)
 
     def to_json_dict(self) -> dict:
         num = json_number
@@ -125,6 +127,7 @@ class Solution:
                          "events": [_event(e) for e in self.events]}} if self.routes else {}),
             "peak": {"speed": _peak(self.channels, ".speed"),
                      "rotor_speed": _peak(self.channels, ".rotor_speed.")},
+            "end_state": self.end_state,
         }
 
     def to_json(self) -> str:

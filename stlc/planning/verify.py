@@ -78,6 +78,10 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
                    for name, s in problem.specs.items()}
         c.peak_speed = _peak(c.channels, ".speed")
         c.peak_rotor_speed = _peak(c.channels, ".rotor_speed.")
+    from stlc.planning.holdable import end_state, flag
+
+    sol.end_state = end_state(problem.mission, problem.vehicles(), ch)
+    sol.notes.extend(flag(problem.mission, sol.end_state))
     sol.bounds = plot_bounds(problem)
     sol.windows = spec_windows(problem)
     return sol

@@ -21,7 +21,7 @@ MISSION_FIELDS = {
     "vehicles": False, "team": False, "vehicle": False, "horizon": True, "step": True,
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
-    "time_limit": False,
+    "time_limit": False, "end": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
@@ -110,6 +110,13 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
         if txt not in ("rk4", "euler"):
             ck.d.error("STL207", "`integrator` is `rk4` or `euler`", v.span)
         options["integrator"] = txt
+    if "end" in f:  # the plan's end state: `hover` (holdable, the default) or `free`
+        v = f["end"].value
+        txt = v.parts[0] if isinstance(v, ast.Path) else getattr(v, "value", "")
+        if txt not in ("hover", "free"):
+            ck.d.error("STL207", "`end` is `hover` (the last sample can be held, the "
+                       "default) or `free`", v.span)
+        options["end"] = txt
     if "max_iter" in f:
         mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT, scope)
         if mi is not None:
