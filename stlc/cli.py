@@ -42,6 +42,10 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument("file", metavar="FILE")
     m.add_argument("--trace", required=True, metavar="CSV")
     m.add_argument("--json", action="store_true", help="print one JSON object")
+    m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
+                   help="interpolate a log with a non-uniform time column onto steps of DT s")
+    m.add_argument("--fail-on-violation", action="store_true",
+                   help="exit 3 when a spec is violated (or undefined)")
 
     k = sub.add_parser("compile", help="plan a trajectory for each mission and write a report")
     k.add_argument("file", metavar="FILE")
@@ -92,9 +96,9 @@ def _number(text: str, what: str) -> float:
 
 
 def _seconds(text: str) -> float:
-    x = _number(text, "time limit")
+    x = _number(text, "seconds")
     if x <= 0:
-        raise argparse.ArgumentTypeError(f"time limit {text!r} must be positive (seconds)")
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number of seconds")
     return x
 
 
@@ -197,24 +201,36 @@ def cmd_check(args) -> int:
 
 def cmd_monitor(args) -> int:
     from stlc.analysis.trace import read_trace
-    from stlc.pipeline import load, monitor_trace
+    from stlc.analysis.vacuity import vacuous
+    from stlc.pipeline import load, monitor_trace, monitored_formulas, warn
 
-    program = load(args.file).program
-    trace = read_trace(args.trace)
+    loaded = load(args.file)
+    program = loaded.program
+    trace = read_trace(args.trace, resample=args.resample)
     res = monitor_trace(program, trace)
+    warn(loaded.warnings + vacuous(monitored_formulas(program), trace.dt, trace.channels,
+                                   program.params, trace.n), False, {args.file: program.source})
     for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
+    if trace.resampled is not None:
+        r = trace.resampled
+        print(f"note: resampled {r['samples_in']} samples onto steps of {r['dt']:g} s "
+              f"(linear interpolation); the largest gap in the log is {r['largest_gap']:g} s "
+              f"after t = {r['gap_at']:g} s", file=sys.stderr)
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
         from stlc.output.solution import strict_dumps
 
-        print(strict_dumps({"specs": res}))
+        print(strict_dumps({"specs": res, **({"resampled": trace.resampled}
+                                             if trace.resampled is not None else {})}))
     else:
         width = max((len(k) for k in res), default=4)
         print(f"{'spec':<{width}}  {'robustness':>12}  satisfied")
         for k, v in res.items():
             sat = {True: "yes", False: "no", None: "undefined"}[v["satisfied"]]
             print(f"{k:<{width}}  {v['robustness']:>12.6g}  {sat}")
+    if args.fail_on_violation and any(v["satisfied"] is not True for v in res.values()):
+        return EXIT_UNSAT
     return EXIT_OK
 
 
