@@ -205,9 +205,14 @@ def _team(ck: Context, b: ast.Block, f: dict) -> list[str]:
     keys = [k for k in ("vehicles", "team", "vehicle") if k in f]
     if len(keys) > 1:
         ck.d.error("STL102", "give the mission's vehicles once", f[keys[1]].span)
-    if not keys:
-        if not ck.vehicles:
-            return []
+    if not keys:  # the only declared vehicle by default; with several, say which (STL104)
+        if len(ck.vehicles) > 1:
+            names = ", ".join(ck.vehicles)
+            ck.d.error("STL104", f"mission `{b.name or 'mission'}` does not say which vehicles "
+                       f"it plans, and the file declares {len(ck.vehicles)}: {names}",
+                       b.name_span if b.name_span.line else b.span,
+                       f"add `vehicles = [{names}]` to the mission, without the ones it does "
+                       "not mean (a backup drone stays out of the list)")
         return list(ck.vehicles)
     node = f[keys[0]].value
     items = node.items if isinstance(node, ast.List) else (node,)
