@@ -145,6 +145,7 @@ class FormulaElaborator(Context):
             if f is None:
                 return ERROR
             parts.append(f)
+        self.closed_quant.update({name: n.span for name in n.names})
         if not parts:
             return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
         if len(parts) == 1:

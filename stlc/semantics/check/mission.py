@@ -57,9 +57,18 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
                        f"use a larger step, at least {horizon / MAX_SAMPLES:.3g} s")
             horizon = step = None
         elif not is_aligned(horizon, step):
-            ck.d.error("STL305", f"horizon {horizon:g} s is not a multiple of the step "
-                       f"{step:g} s", f["horizon"].value.span)
-            horizon = None
+            # the root cause: one error naming both; the time bounds are not checked
+            # against a step that is wrong anyway (they were, one error each, before)
+            good = [s for s in (1, 0.5, 0.25, 0.2, 0.1, 0.05, 0.02, 0.01)
+                    if is_aligned(horizon, s)]
+            near = sorted(good, key=lambda s: abs(s - step))[:2]
+            ck.d.error("STL305", f"the step {step:g} s does not divide the horizon "
+                       f"{horizon:g} s ({horizon / step:.4g} steps), so no time bound of "
+                       f"mission `{name}` was checked against it", f["step"].value.span,
+                       (f"use a step that divides {horizon:g} s and your time bounds, e.g. "
+                        + " or ".join(f"{s:g} s" for s in near)) if near else
+                       "make the horizon a multiple of the step")
+            horizon = step = None
 
     vehicles = _team(ck, b, f)
     vehicles += [v for v in ck.extra_team.get(name, ()) if v in ck.vehicles and v not in vehicles]
