@@ -202,14 +202,16 @@ def cmd_check(args) -> int:
 def cmd_monitor(args) -> int:
     from stlc.analysis.trace import read_trace
     from stlc.analysis.vacuity import vacuous
-    from stlc.pipeline import load, monitor_trace, monitored_formulas, warn
+    from stlc.diagnostics import emit_warnings
+    from stlc.pipeline import load, monitor_trace, monitored_formulas
 
     loaded = load(args.file)
     program = loaded.program
     trace = read_trace(args.trace, resample=args.resample)
     res = monitor_trace(program, trace)
-    warn(loaded.warnings + vacuous(monitored_formulas(program), trace.dt, trace.channels,
-                                   program.params, trace.n), False, {args.file: program.source})
+    found = vacuous(monitored_formulas(program), trace.dt, trace.channels, program.params,
+                    trace.n)
+    emit_warnings(loaded.warnings + found, False, {args.file: program.source})
     for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
@@ -219,7 +221,7 @@ def cmd_monitor(args) -> int:
               f"(linear interpolation); the largest gap in the log is {r['largest_gap']:g} s "
               f"after t = {r['gap_at']:g} s", file=sys.stderr)
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
-        from stlc.output.solution import strict_dumps
+        from stlc.strictjson import strict_dumps
 
         print(strict_dumps({"specs": res, **({"resampled": trace.resampled}
                                              if trace.resampled is not None else {})}))

@@ -181,3 +181,13 @@ def progress_note() -> str:
     if not active():
         return ""
     return f", {max(0.0, remaining()):.1f} s left"
+
+
+def mission_limit(options: dict, cli: float | None, share: float) -> float | None:
+    """The time limit of one mission: ``--time-limit`` (``share``: its part of what is
+    left, shared by the missions still to run) or else the mission's ``time_limit``
+    field (``options``); None = no limit."""
+    if cli is not None:
+        return share
+    lim = options.get("time_limit")
+    return None if lim is None else float(lim)

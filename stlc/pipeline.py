@@ -14,10 +14,8 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
 from stlc import deadline
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean, emit_warnings
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
@@ -40,36 +38,6 @@ def load(path: str) -> Loaded:
     program = check(tree)
     t2 = time.perf_counter()
     return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1}, lint(tree, program))
-
-
-def warn(warnings: list[Diagnostic], deny: bool, sources: dict[str, str] | None = None) -> None:
-    """Print ``warnings`` (stderr); with ``deny`` (``--deny-warnings``) they are errors."""
-    from stlc.diagnostics import render_all
-
-    if not warnings:
-        return
-    if deny:
-        raise StlcError([replace(w, severity="error") for w in warnings])
-    if sources is None:
-        sources = {}
-        for f in {w.span.file for w in warnings if w.span.file}:
-            try:
-                with open(f, encoding="utf-8", errors="replace") as fh:
-                    sources[f] = fh.read().removeprefix("\ufeff")
-            except OSError:
-                pass
-    print(render_all(warnings, sources), file=sys.stderr)
-    n = len(warnings)
-    print(f"stlc: {n} warning{'s' if n != 1 else ''}", file=sys.stderr)
-
-
-def plan_warnings(problem, sol) -> list[Diagnostic]:
-    """Warnings about the plan itself: implications that hold only vacuously (STLW02)."""
-    from stlc.analysis.vacuity import vacuous
-
-    m = problem.mission
-    formulas = {m.name: m.requirement, **m.specs}
-    return vacuous(formulas, problem.grid.dt, sol.channels, problem.params, len(sol.times))
 
 
 def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
@@ -119,10 +87,6 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
     return out
 
 
-def as_float(x) -> float:
-    return float(np.asarray(x).reshape(-1)[0])
-
-
 # ---------------------------------------------------------------- planning
 
 
@@ -144,7 +108,7 @@ def backend_chain(problem, quiet: bool = True) -> list:
 def _team_comparisons(sols: list) -> None:
     """A team plan is shown beside its seed ("MILP only", paper B Fig. 8), first; the
     refinement already added the standard plan of a ``compare`` variant (Fig. 11)."""
-    from stlc.output.solution import Comparison
+    from stlc.planning.solution import Comparison
 
     seed, final = sols[0], sols[-1]
     final.comparisons.insert(0, Comparison("MILP only", dict(seed.channels)))
@@ -159,7 +123,9 @@ def _team_comparisons(sols: list) -> None:
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
          step: float | None = None, horizon: float | None = None):
     """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
+    from stlc.analysis.vacuity import plan_warnings
     from stlc.backends.base import run_chain
+    from stlc.planning.fallback import fallback, time_limited
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import verify
 
@@ -169,65 +135,15 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
         sol, sols = run_chain(problem, chain)
     except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
         deadline.caught()
-        sol, sols = _fallback(problem), []
+        sol, sols = fallback(problem), []
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
-    _time_limited(sol)
+    time_limited(sol)
     sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
-
-
-def _fallback(problem):
-    from stlc.planning.fallback import hover_solution
-
-    return hover_solution(problem, f"the time limit of {deadline.limit():g} s ran out "
-                          "while the problem was being built")
-
-
-def _overrun(program: model.Program, m: model.Mission, outdir: str, code: int, quiet: bool):
-    """The watchdog's writer (``stlc.deadline``): the fallback plan, verified and written
-    from the watchdog thread while the planning thread is stuck in a C call."""
-    def write() -> int:
-        from stlc.output import compile as outputs
-        from stlc.planning.problem import from_mission
-        from stlc.planning.verify import verify
-
-        problem = from_mission(program, m)
-        sol = _fallback(problem)
-        verify(problem, sol)
-        _time_limited(sol)
-        outputs.write_outputs(outdir, program, m, sol)
-        if not quiet or sol.status != "satisfied":
-            outputs.summary(sol, outdir)
-        return code if sol.status == "satisfied" else outputs.EXIT_UNSAT
-    return write
-
-
-def _time_limited(sol) -> None:
-    """The run's time limit (``stlc.deadline``) stopped the search: the plan is the best
-    verified one found so far, not converged; one that does not satisfy is ``stopped``."""
-    stages = sol.solver.get("stages") or []
-    if not deadline.active() or not (deadline.solve_expired() or
-                                     any(s.get("status") == "max_time" for s in stages)):
-        return
-    limit = deadline.limit()
-    sol.solver.update(stopped_by="time_limit", time_limit_s=limit, converged=False)
-    sol.notes.append(f"stopped by the time limit of {limit:g} s: this is the best verified "
-                     "plan found so far (the solver did not converge)")
-    if sol.status != "satisfied":
-        sol.status = "stopped"
-
-
-def mission_time_limit(m: model.Mission, cli: float | None, share: float) -> float | None:
-    """The time limit of one mission: ``--time-limit`` (shared by the missions still to
-    run) or else the mission's ``time_limit`` field; None = no limit."""
-    if cli is not None:
-        return share
-    lim = m.options.get("time_limit")
-    return None if lim is None else float(lim)
 
 
 def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
@@ -272,7 +188,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     loaded = load(path)
     program = loaded.program
     missions = select_missions(path, program, mission)
-    warn(loaded.warnings, deny_warnings, {path: program.source})
+    emit_warnings(loaded.warnings, deny_warnings, {path: program.source})
     several = len(missions) > 1
     base = out if out is not None else "reports"
     outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
@@ -289,8 +205,9 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         t1 = time.perf_counter()
         share = None if time_limit is None else \
             (time_limit - (time.monotonic() - start)) / (len(missions) - i)
-        with deadline.limited(mission_time_limit(m, time_limit, share),
-                              overrun=_overrun(program, m, outdirs[m.name], code, quiet)):
+        with deadline.limited(deadline.mission_limit(m.options, time_limit, share),
+                              overrun=outputs.overrun_writer(program, m, outdirs[m.name], code,
+                                                               quiet)):
             _, sol = plan(program, m, quiet=quiet)
             sol.timing.update(loaded.timing)
             if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
@@ -308,8 +225,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if sol.status != "satisfied":
             code = outputs.EXIT_UNSAT
         if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
-            warn([replace(w, severity="error") for w in found] if deny_warnings else found,
-                 False, {path: program.source})
+            emit_warnings([replace(w, severity="error") for w in found] if deny_warnings
+                          else found, False, {path: program.source})
             if deny_warnings:
                 code = outputs.EXIT_UNSAT
     if not quiet:
@@ -325,8 +242,8 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     from stlc.analysis.assess import risk_table, run_risk, select_mission
     from stlc.analysis.risk import RiskError, SamplingError, save_samples
     from stlc.analysis.trace import check_signals, read_trace
-    from stlc.output.solution import Solution
-    from stlc.planning.problem import mission_specs
+    from stlc.planning.solution import Solution
+    from stlc.semantics.specs import mission_specs
 
     program = load(path).program
     m = select_mission(path, program, mission)
@@ -344,7 +261,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
                         ) from None
     outdir = out or os.path.dirname(os.path.abspath(trajectory))
     from stlc.output.directory import staged
-    from stlc.output.solution import strict
+    from stlc.strictjson import strict
 
     target = os.path.join(outdir, "risk.json")
     with staged(outdir, mission_span(path, m),
@@ -406,7 +323,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
 def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfig) -> None:
     """Before any solve: can a replanning segment keep the specs of ``keep = [...]``?"""
     from stlc.planning.problem import from_mission
-    from stlc.replan.segment import KeptSpecError, kept_clauses
+    from stlc.planning.kept import KeptSpecError, kept_clauses
 
     problem = from_mission(program, m)
     try:
@@ -447,7 +364,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     if dist:
         _check_kept(program, m, cfg)
     # the time limit bounds planning the nominal plan (replans have their budget t_c)
-    with deadline.limited(mission_time_limit(m, time_limit, time_limit or 0.0),
+    with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
                           start=time.monotonic() - (time.perf_counter() - t0)):
         problem, sol = plan(program, m, quiet=quiet)
     sol.timing.update(loaded.timing)
@@ -458,9 +375,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
 
             sim = simulate_failure(problem, sol, fails[0], cfg)
         else:
+            from stlc.backends.segment import SegmentBackend
             from stlc.replan.disturb import simulate_disturbances
 
-            sim = simulate_disturbances(problem, sol, dist, cfg)
+            sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
     except ValueError as e:  # the replanning modules' input errors (subclasses)
         if type(e) is ValueError:
             raise

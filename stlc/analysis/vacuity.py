@@ -86,3 +86,10 @@ def vacuous(formulas: dict[str, ir.Formula], dt: float, channels: dict, params: 
                 "enter the antecedent, require it too (e.g. `eventually (...)`)",
                 severity="warning"))
     return out
+
+
+def plan_warnings(problem, sol) -> list[Diagnostic]:
+    """STLW02 on a plan: the mission's requirement and named specs on its channels."""
+    m = problem.mission
+    formulas = {m.name: m.requirement, **m.specs}
+    return vacuous(formulas, problem.grid.dt, sol.channels, problem.params, len(sol.times))

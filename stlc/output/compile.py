@@ -13,7 +13,8 @@ import json
 import os
 import sys
 
-from stlc.output.solution import Solution
+from stlc.output.solution import solution_json, trajectory_csv
+from stlc.planning.solution import Solution
 from stlc.semantics import model
 
 EXIT_OK, EXIT_UNSAT = 0, 3
@@ -39,9 +40,9 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
         if extra is not None:
             extra(tmp)
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
-            fh.write(sol.to_json())
+            fh.write(solution_json(sol))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
-            fh.write(sol.trajectory_csv())
+            fh.write(trajectory_csv(sol))
         if sol.routes:
             from stlc.backends.team_backend import solution_plan
             from stlc.team.refine import per_drone_csv
@@ -50,7 +51,7 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
                 with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
                     fh.write(text)
         if sol.risk is not None:
-            from stlc.output.solution import strict
+            from stlc.strictjson import strict
 
             with open(os.path.join(tmp, "risk.json"), "w") as fh:
                 json.dump(strict(sol.risk), fh, indent=2, allow_nan=False)
@@ -79,3 +80,24 @@ def summary(sol: Solution, outdir: str) -> None:
                 print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
                       f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}: "
                       f"{s.binding_predicate}", file=sys.stderr)
+
+
+def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,
+                   quiet: bool):
+    """The watchdog's writer (``stlc.deadline``): the fallback plan, verified and written
+    from the watchdog thread while the planning thread is stuck in a C call; returns the
+    exit code."""
+    def write() -> int:
+        from stlc.planning.fallback import fallback, time_limited
+        from stlc.planning.problem import from_mission
+        from stlc.planning.verify import verify
+
+        problem = from_mission(program, m)
+        sol = fallback(problem)
+        verify(problem, sol)
+        time_limited(sol)
+        write_outputs(outdir, program, m, sol)
+        if not quiet or sol.status != "satisfied":
+            summary(sol, outdir)
+        return code if sol.status == "satisfied" else EXIT_UNSAT
+    return write

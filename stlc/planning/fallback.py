@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlc import vehicles
-from stlc.output.solution import Solution, Verdict
+from stlc import deadline, vehicles
+from stlc.planning.solution import Solution, Verdict
 from stlc.planning.problem import PlanningProblem
 
 
@@ -41,3 +41,24 @@ def hover_solution(problem: PlanningProblem, reason: str) -> Solution:
     sol.notes.append(f"{reason}: no solver produced a plan in time, so the plan is every "
                      "vehicle hovering at its start (not a planned trajectory)")
     return sol
+
+
+def fallback(problem: PlanningProblem) -> Solution:
+    """The plan when the watchdog cut the build (``stlc.deadline``)."""
+    return hover_solution(problem, f"the time limit of {deadline.limit():g} s ran out while "
+                          "the problem was being built")
+
+
+def time_limited(sol: Solution) -> None:
+    """The run's time limit (``stlc.deadline``) stopped the search: the plan is the best
+    verified one found so far, not converged; one that does not satisfy is ``stopped``."""
+    stages = sol.solver.get("stages") or []
+    if not deadline.active() or not (deadline.solve_expired() or
+                                     any(s.get("status") == "max_time" for s in stages)):
+        return
+    limit = deadline.limit()
+    sol.solver.update(stopped_by="time_limit", time_limit_s=limit, converged=False)
+    sol.notes.append(f"stopped by the time limit of {limit:g} s: this is the best verified "
+                     "plan found so far (the solver did not converge)")
+    if sol.status != Verdict.SATISFIED:
+        sol.status = Verdict.STOPPED
