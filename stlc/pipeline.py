@@ -14,6 +14,8 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from stlc import deadline
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean, emit_warnings
 from stlc.frontend.syntax import parse_file
@@ -336,6 +338,19 @@ def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfi
                                     "`safety`; keep only those")]) from None
 
 
+def _replan_defaults(program: model.Program, m: model.Mission, cfg: model.ReplanConfig
+                     ) -> model.ReplanConfig:
+    """T_g from the vehicles' acceleration limits when the mission does not give it."""
+    from stlc import vehicles
+    from stlc.replan.explain import default_waypoint_period
+
+    if "waypoint_period" in cfg.given or not m.vehicles:
+        return cfg
+    acc = np.min([vehicles.model_of(program.vehicles[v]).kinematic_limits(
+        program.vehicles[v])[1] for v in m.vehicles], axis=0)
+    return replace(cfg, waypoint_period=default_waypoint_period(cfg.threshold, acc, m.step))
+
+
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
                   quiet: bool = False, time_limit: float | None = None) -> int:
@@ -360,7 +375,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     dist, fails = simulation_events(path, program, m, disturbances, failures)
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, mission_span(path, m))
-    cfg = m.replan or model.ReplanConfig()
+    cfg = _replan_defaults(program, m, m.replan or model.ReplanConfig())
     if dist:
         _check_kept(program, m, cfg)
     # the time limit bounds planning the nominal plan (replans have their budget t_c)

@@ -417,6 +417,7 @@ def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None
                 keep.append(txt)
     if None in (thr, te, tg, tc, trep):
         return None
-    return model.ReplanConfig(thr, te, tg, tc, tuple(keep), trep)  # type: ignore[arg-type]
+    return model.ReplanConfig(thr, te, tg, tc, tuple(keep), trep,  # type: ignore[arg-type]
+                              frozenset(f))
 
 
