@@ -64,8 +64,9 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
 
 def summary(sol: Solution, outdir: str) -> None:
+    energy = f"{sol.energy:.1f} J" if sol.energy == sol.energy else "not computed"
     print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
-          f"smooth {sol.robustness_smooth:+.4f}  energy {sol.energy:.1f} J  "
+          f"smooth {sol.robustness_smooth:+.4f}  energy {energy}  "
           f"→ {outdir}/report.html")
     if sol.status != "satisfied":
         worst = min(sol.specs.items(), key=lambda kv: kv[1].robustness, default=None)

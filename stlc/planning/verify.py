@@ -81,6 +81,9 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     from stlc.planning.holdable import end_state, flag
 
     sol.end_state = end_state(problem.mission, problem.vehicles(), ch)
+    if not any(vehicles.model_of(v).has_rotor_energy(v) for v in problem.vehicles()):
+        # no energy model (point masses): "not computed" (null), never a made-up 0.0 J
+        sol.energy, sol.energy_profile = float("nan"), None
     sol.notes.extend(flag(problem.mission, sol.end_state))
     sol.bounds = plot_bounds(problem)
     sol.windows = spec_windows(problem)
