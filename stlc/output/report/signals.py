@@ -329,7 +329,7 @@ class _Builder:
     def payload(self) -> None:
         traces = [{"name": v, "y": nums(c), "shape": "hv"} for v in self.vehicles
                   if (c := channel(self.sol, f"{v}.payload")) is not None]
-        self.add("sig-payload", "Payload (diverters on board)", "", traces,
+        self.add("sig-payload", "Payload (items on board)", "", traces,
                  prefixes=tuple(f"{v}.payload" for v in self.vehicles))
 
 
