@@ -34,8 +34,8 @@ import time
 from collections.abc import Callable, Iterator
 
 #: kept back from the solvers for verification, risk and writing the outputs
-RESERVE_FRACTION = 0.2
-RESERVE_MAX_S = 1.5
+RESERVE_FRACTION = 0.3
+RESERVE_MAX_S = 2.5
 
 _state: dict[str, float | None] = {"end": None, "limit": None, "start": None}
 #: a thread stuck in one long C call (CasADi differentiating a large NLP; the GIL is
@@ -43,7 +43,7 @@ _state: dict[str, float | None] = {"end": None, "limit": None, "start": None}
 #: ``overrun`` writer (the fallback plan's outputs) and ends the process with its exit code
 GRACE_S = 0.4
 _watch: dict = {"timer": None, "thread": None, "armed": False, "fired": False,
-                "caught": False, "overrun": None}
+                "caught": False, "overrun": None, "entered": False}
 _lock = threading.Lock()
 
 
@@ -75,23 +75,31 @@ def limited(seconds: float | None, start: float | None = None,
     if active():
         with _lock:
             _watch.update(thread=threading.get_ident(), armed=True, fired=False,
-                          caught=False, overrun=overrun)
+                          caught=False, overrun=overrun, entered=False)
             t = threading.Timer(max(0.0, solve_remaining()), _fire)
             t.daemon = True
             _watch["timer"] = t
         t.start()
     try:
+        with _lock:  # the watchdog raises only inside the block (see _fire)
+            _watch["entered"] = True
         yield
     finally:
         with _lock:
             if _watch["timer"] is not None:
                 _watch["timer"].cancel()
-            _watch.update(timer=None, thread=None, armed=False, overrun=None)
+            _watch.update(timer=None, thread=None, armed=False, overrun=None, entered=False)
         clear()
 
 
 def _fire() -> None:
     with _lock:
+        if _watch["armed"] and not _watch["entered"]:  # not inside the block yet: soon
+            t = threading.Timer(0.02, _fire)
+            t.daemon = True
+            _watch["timer"] = t
+            t.start()
+            return
         if _watch["armed"] and _watch["thread"] is not None:
             _watch["fired"] = True
             ctypes.pythonapi.PyThreadState_SetAsyncExc(

@@ -148,6 +148,25 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     return problem, sol
 
 
+def plan_in_time(program: model.Program, mission: model.Mission, *, quiet: bool = True):
+    """``plan`` under the run's time limit: when the watchdog's ``TimeLimitReached`` lands
+    outside the backend chain (an import, the problem's construction), the fallback plan
+    is verified and returned all the same (``stlc.deadline``)."""
+    try:
+        return plan(program, mission, quiet=quiet)
+    except deadline.TimeLimitReached:
+        from stlc.planning.fallback import fallback, time_limited
+        from stlc.planning.problem import from_mission
+        from stlc.planning.verify import verify
+
+        deadline.caught()
+        problem = from_mission(program, mission)
+        sol = fallback(problem)
+        verify(problem, sol)
+        time_limited(sol)
+        return problem, sol
+
+
 def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
     """Run the mission's risk cases on the plan; results go onto the Solution (in memory)."""
     from stlc.analysis.assess import run_risk
@@ -205,12 +224,16 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     code = outputs.EXIT_OK
     for i, m in enumerate(missions):
         t1 = time.perf_counter()
-        share = None if time_limit is None else \
+        # the last (or only) mission ends with the command's limit; earlier ones get an
+        # equal part of what is left
+        last = i == len(missions) - 1
+        share = None if time_limit is None else time_limit if last else \
             (time_limit - (time.monotonic() - start)) / (len(missions) - i)
         with deadline.limited(deadline.mission_limit(m.options, time_limit, share),
+                              start=start if time_limit is not None and last else None,
                               overrun=outputs.overrun_writer(program, m, outdirs[m.name], code,
                                                                quiet)):
-            _, sol = plan(program, m, quiet=quiet)
+            _, sol = plan_in_time(program, m, quiet=quiet)
             sol.timing.update(loaded.timing)
             if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
                 sol.notes.append("the risk cases were not assessed: the time limit ran out "
@@ -381,7 +404,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     # the time limit bounds planning the nominal plan (replans have their budget t_c)
     with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
                           start=time.monotonic() - (time.perf_counter() - t0)):
-        problem, sol = plan(program, m, quiet=quiet)
+        problem, sol = plan_in_time(program, m, quiet=quiet)
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
     try:

@@ -36,13 +36,28 @@ def _env():
 
 def test_time_limit_writes_verified_plan_in_time(tmp_path):
     out = tmp_path / "out"
+    # the clock starts once stlc's command line is imported: measure that start-up here,
+    # under the same load, instead of assuming it; and the fixed cost of a compile that
+    # needs no time at all (imports, check, writing the 5 MB report: ~2 s on an idle
+    # machine, 7 s at load 29 on 2 cores) — what it costs beyond 2.5 s is the machine's
+    # load, not the limit's
+    t0 = time.monotonic()
+    subprocess.run([sys.executable, "-c", "import stlc.cli"], env=_env(), check=True,
+                   timeout=120)
+    startup = time.monotonic() - t0
+    (tmp_path / "tiny.stl").write_text(POINT.replace("TL", "end = free"))
+    t0 = time.monotonic()
+    subprocess.run([sys.executable, "-m", "stlc", "compile", str(tmp_path / "tiny.stl"),
+                    "-o", str(tmp_path / "tiny"), "-q"], env=_env(), timeout=300)
+    load_excess = max(0.0, time.monotonic() - t0 - 2.5)
     t0 = time.monotonic()
     r = subprocess.run([sys.executable, "-m", "stlc", "compile", str(PATROL), "-o", str(out),
                         "--time-limit", "5", "-q"], capture_output=True, text=True,
                        env=_env(), timeout=120)
     wall = time.monotonic() - t0
     assert r.returncode in (0, 3), r.stderr
-    assert wall <= 5 + 1 + 1.5, wall  # limit + 1 s, + the interpreter's start and imports
+    # limit + 1 s, + the interpreter's start-up, + what the load adds to the fixed costs
+    assert wall <= 5 + 1 + startup + load_excess, (wall, startup, load_excess)
     assert {"report.html", "solution.json", "trajectory.csv"} <= set(os.listdir(out))
     sol = json.loads((out / "solution.json").read_text())
     assert sol["solver"]["stopped_by"] == "time_limit"

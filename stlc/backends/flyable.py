@@ -46,7 +46,7 @@ def add_rows(g_list: list, lbg: list, ubg: list, mission: model.Mission, layouts
             g_list.append(ca.vec(xdot))
             lbg.append(np.full(L.nx, -HOLD_TOL))
             ubg.append(np.full(L.nx, HOLD_TOL))
-        chans = v.channels()
+        chans = vm.state_channels(v)
         rz = f"{v.name}.rate.z"
         if rz in chans:
             row = X[chans.index(rz), :]

@@ -24,11 +24,11 @@ def hover_solution(problem: PlanningProblem, reason: str) -> Solution:
         vm = vehicles.model_of(v)
         P = np.tile(np.asarray(v.start_pos, dtype=float)[:, None], (1, n))
         X, U = vm.guess(v, P, np.zeros((3, n)), np.zeros((3, n - 1)), dt)
-        for i, name in enumerate(v.channels()):
+        for i, name in enumerate(vm.state_channels(v)):
             ch[name] = np.asarray(X[i], dtype=float).copy()
-        U = np.asarray(U, dtype=float).reshape(len(v.input_channels()), -1)
+        U = np.asarray(U, dtype=float).reshape(len(vm.input_channels(v)), -1)
         Up = np.hstack([U, U[:, -1:]]) if U.shape[1] == n - 1 else U
-        for i, name in enumerate(v.input_channels()):
+        for i, name in enumerate(vm.input_channels(v)):
             ch[name] = Up[i].copy()
         ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
         energy += vm.energy_profile(v, vehicles.state_matrix(v, ch), dt)

@@ -26,16 +26,17 @@ def end_state(mission: model.Mission, vehicle_list: list, channels: dict) -> dic
     out: dict[str, dict] = {}
     for v in vehicle_list:
         vm = vehicles.model_of(v)
-        names = v.channels()
+        names = vm.state_channels(v)
         if not all(c in channels and len(channels[c]) for c in names):
             continue
         x = np.array([float(channels[c][-1]) for c in names])
-        nu = len(v.input_channels())
+        nu = len(vm.input_channels(v))
         f = np.asarray(vm.ode(v)(x, np.zeros(nu))).ravel()
-        vel = np.array([x[names.index(f"{v.name}.vel.{a}")] for a in "xyz"])
-        vi = [names.index(f"{v.name}.vel.{a}") for a in "xyz"]
-        row = {"residual": float(np.max(np.abs(f))), "speed": float(np.linalg.norm(vel)),
-               "accel": float(np.linalg.norm(f[vi]))}
+        row = {"residual": float(np.max(np.abs(f)))}
+        vi = [names.index(c) for c in (f"{v.name}.vel.{a}" for a in "xyz") if c in names]
+        if len(vi) == 3:
+            row["speed"] = float(np.linalg.norm(x[vi]))
+            row["accel"] = float(np.linalg.norm(f[vi]))
         if f"{v.name}.rate.x" in names:
             row["rate"] = float(np.linalg.norm([x[names.index(f"{v.name}.rate.{a}")]
                                                 for a in "xyz"]))
@@ -52,8 +53,9 @@ def flag(mission: model.Mission, ends: dict[str, dict]) -> list[str]:
     for name, e in ends.items():
         if not e["holdable"]:
             rate = f", body rate {e['rate']:.3f} rad/s" if "rate" in e else ""
-            notes.append(f"{name} ends in a state it cannot hold: speed {e['speed']:.3f} m/s"
-                         f"{rate}, acceleration {e['accel']:.3f} m/s² at zero input (hover "
+            motion = (f"speed {e['speed']:.3f} m/s{rate}, acceleration {e['accel']:.3f} m/s²"
+                      if "speed" in e else f"largest rate of change {e['residual']:.3f}")
+            notes.append(f"{name} ends in a state it cannot hold: {motion} at zero input (hover "
                          f"needs every rate of change ≤ {HOLD_TOL:g}); add a final hover or "
                          "`end = free` if the mission means it")
     return notes

@@ -319,7 +319,7 @@ def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
         "speed": scal(speed, units.SPEED, f"{n}.speed"),
         "horizontal_speed": scal(hspeed, units.SPEED, f"{n}.horizontal_speed"),
         "course": scal(ir.Call("atan2", (vy, vx)), units.ANGLE, f"{n}.course"),
-        "radius": Num(np.asarray(float(v.radius)), units.LENGTH),  # a constant
+        "radius": Num(np.asarray(float(getattr(v, "radius", 0.0))), units.LENGTH),  # a constant
     }
     for name, fld in model_of(v).formula_fields(v).items():  # the model's own fields
         items = tuple(ir.Sig(c) if fld.sqrt_of_ratio is None
