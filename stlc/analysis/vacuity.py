@@ -27,8 +27,10 @@ TOUCH = 1e-6
 
 def _window(mask: np.ndarray, lo: float, hi: float, dt: float) -> np.ndarray:
     n = len(mask)
-    a = int(math.ceil(lo / dt - 1e-9))
-    b = n - 1 if math.isinf(hi) else int(math.floor(hi / dt + 1e-9))
+    with np.errstate(over="ignore"):
+        qa, qb = lo / dt, hi / dt
+    a = n if not (math.isfinite(qa) and qa < n) else int(math.ceil(qa - 1e-9))
+    b = n - 1 if not (math.isfinite(qb) and qb < n) else int(math.floor(qb + 1e-9))
     out = np.zeros(n, dtype=bool)
     for k in np.flatnonzero(mask):
         if k + a < n:
@@ -53,13 +55,34 @@ def _implications(f: ir.Formula, mask: np.ndarray, dt: float, out: list) -> None
             _implications(c, mask, dt, out)
 
 
+def _has_implies(f: ir.Formula, memo: dict[int, bool]) -> bool:
+    """Does ``f`` contain an implication?  Iterative, shared subformulas visited once (a
+    chain of named specs inlines each into the next)."""
+    stack = [(f, False)]
+    while stack:
+        g, done = stack.pop()
+        if id(g) in memo:
+            continue
+        kids = ir.children(g)
+        if done or not kids:
+            memo[id(g)] = isinstance(g, ir.Implies) or any(memo.get(id(c), False)
+                                                            for c in kids)
+        else:
+            stack.append((g, True))
+            stack.extend((c, False) for c in kids if id(c) not in memo)
+    return memo[id(f)]
+
+
 def vacuous(formulas: dict[str, ir.Formula], dt: float, channels: dict, params: dict,
             n: int) -> list[Diagnostic]:
     """One ``STLW02`` warning per implication (by source position) of ``formulas`` whose
     antecedent is ≤ 0 at every sample where it is evaluated."""
     seen: set = set()
     out: list[Diagnostic] = []
+    memo: dict[int, bool] = {}
     for name, f in formulas.items():
+        if n < 1 or not _has_implies(f, memo):
+            continue
         start = np.zeros(n, dtype=bool)
         start[0] = True
         found: list = []
