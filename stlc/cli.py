@@ -22,9 +22,9 @@ import time
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
+from stlc.exitcodes import (EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
+                            EXIT_OK, EXIT_UNSAT)
 
-EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
-EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
 _STARTED = time.monotonic()  # `--time-limit` counts from here (the imports before are ~0.3 s)
 
 

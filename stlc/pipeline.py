@@ -17,7 +17,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from stlc import deadline
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean, emit_warnings
+from stlc.diagnostics import Diagnostic, Span, StlcError, emit_warnings
+from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
@@ -183,12 +184,9 @@ def mission_span(path: str, m: model.Mission) -> Span:
 
 def select_missions(path: str, program: model.Program, name: str | None) -> list:
     if name is not None:
-        if name not in program.missions:
-            raise StlcError([Diagnostic("STL101", f"no mission `{name}` in {path}",
-                                        Span(path, 1, 1, 1, 2),
-                                        did_you_mean(name, program.missions) or
-                                        "missions: " + ", ".join(program.missions))])
-        return [program.missions[name]]
+        from stlc.semantics.specs import mission_named
+
+        return [mission_named(path, program, name)]
     if not program.missions:
         raise StlcError([Diagnostic("STL109", f"{path} declares no mission to compile",
                                     Span(path, 1, 1, 1, 2),
@@ -221,7 +219,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if out == "":  # not "the current directory" (nor `-o ""` + mission name)
             preflight(out, span)
         preflight(outdirs[m.name], span)
-    code = outputs.EXIT_OK
+    code = EXIT_OK
     for i, m in enumerate(missions):
         t1 = time.perf_counter()
         # the last (or only) mission ends with the command's limit; earlier ones get an
@@ -248,12 +246,12 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
         if sol.status != "satisfied":
-            code = outputs.EXIT_UNSAT
+            code = EXIT_UNSAT
         if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
             emit_warnings([replace(w, severity="error") for w in found] if deny_warnings
                           else found, False, {path: program.source})
             if deny_warnings:
-                code = outputs.EXIT_UNSAT
+                code = EXIT_UNSAT
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code
@@ -310,7 +308,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
     """The events of ``stlc simulate``: those given on the command line (``--disturb``,
     ``--fail``) replace the file's ``simulate`` block; each is checked like the file's
     (reported at the mission's name, exit 1)."""
-    from stlc.backends.team_backend import reads_payload
+    from stlc.semantics.specs import reads_payload
     from stlc.semantics.check.events import event_problems
 
     span = mission_span(path, m)
@@ -382,7 +380,6 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     executed trajectory and write the compile outputs plus ``replan.json`` and
     ``executed.csv``.  Exit 0 when every triggered replan was accepted and the executed
     trajectory satisfies the kept specs, 3 otherwise."""
-    from stlc.output import compile as outputs
     from stlc.output.directory import preflight
     from stlc.output.simulate import simulation_summary, write_simulation
 
@@ -409,9 +406,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     t1 = time.perf_counter()
     try:
         if fails:
+            from stlc.backends.backup import BackupPlanner
             from stlc.replan.takeover import simulate_failure
 
-            sim = simulate_failure(problem, sol, fails[0], cfg)
+            sim = simulate_failure(problem, sol, fails[0], cfg, planner=BackupPlanner())
         else:
             from stlc.backends.segment import SegmentBackend
             from stlc.replan.disturb import simulate_disturbances
@@ -433,4 +431,4 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     ok = simulation_summary(sim, outdir, quiet)
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    return outputs.EXIT_OK if ok else outputs.EXIT_UNSAT
+    return EXIT_OK if ok else EXIT_UNSAT

@@ -17,8 +17,6 @@ from stlc.output.solution import solution_json, trajectory_csv
 from stlc.planning.solution import Solution
 from stlc.semantics import model
 
-EXIT_OK, EXIT_UNSAT = 0, 3
-
 
 # ---------------------------------------------------------------- outputs
 
@@ -100,5 +98,7 @@ def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: 
         write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             summary(sol, outdir)
+        from stlc.exitcodes import EXIT_UNSAT
+
         return code if sol.status == "satisfied" else EXIT_UNSAT
     return write
