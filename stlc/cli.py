@@ -19,10 +19,14 @@ import contextlib
 import math
 import os
 import sys
+import time
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
-from stlc.exitcodes import EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
+from stlc.exitcodes import (EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
+                            EXIT_OK, EXIT_UNSAT)
+
+_STARTED = time.monotonic()  # `--time-limit` counts from here (the imports before are ~0.3 s)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -33,11 +37,16 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="parse and type-check .stl files")
     c.add_argument("files", nargs="+", metavar="FILE")
     c.add_argument("--format", choices=("text", "json"), default="text")
+    c.add_argument("--deny-warnings", action="store_true", help="warnings are errors")
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE")
     m.add_argument("--trace", required=True, metavar="CSV")
     m.add_argument("--json", action="store_true", help="print one JSON object")
+    m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
+                   help="interpolate a log with a non-uniform time column onto steps of DT s")
+    m.add_argument("--fail-on-violation", action="store_true",
+                   help="exit 3 when a spec is violated (or undefined)")
 
     k = sub.add_parser("compile", help="plan a trajectory for each mission and write a report")
     k.add_argument("file", metavar="FILE")
@@ -48,6 +57,10 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--backend", metavar="NAME", default=None,
                    help="force a backend chain: milp | nlp | team (or a backend's name); "
                    "default: chosen by capabilities")
+    k.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
+                   help="stop planning after SECONDS and write the best verified plan")
+    k.add_argument("--deny-warnings", action="store_true", help="warnings are errors "
+                   "(exit 1 before planning; a plan's own warnings: exit 3)")
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -62,6 +75,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="DRONE fails at T s (needs --backup)")
     s.add_argument("--backup", metavar="DRONE", default=None,
                    help="the declared drone that takes over after --fail")
+    s.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
+                   help="stop planning the nominal plan after SECONDS (best verified plan)")
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
@@ -89,6 +104,13 @@ def _number(text: str, what: str) -> float:
         raise argparse.ArgumentTypeError(f"{what} {text!r} is not a number") from None
     if not math.isfinite(x):
         raise argparse.ArgumentTypeError(f"{what} {text!r} is not finite")
+    return x
+
+
+def _seconds(text: str) -> float:
+    x = _number(text, "seconds")
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number of seconds")
     return x
 
 
@@ -169,44 +191,65 @@ def _sources(diags) -> dict[str, str]:
 def _print_diags(e: StlcError, sources: dict[str, str] | None) -> None:
     srcs = sources if sources is not None else _sources(e.diagnostics)
     print(render_all(e.diagnostics, srcs), file=sys.stderr)
-    n = len(e.diagnostics)
-    print(f"stlc: {n} error{'s' if n != 1 else ''}", file=sys.stderr)
+    n = sum(1 for d in e.diagnostics if d.severity == "error")
+    w = len(e.diagnostics) - n
+    print(f"stlc: {n} error{'s' if n != 1 else ''}" if n or not w else
+          f"stlc: {w} warning{'s' if w != 1 else ''}", file=sys.stderr)
 
 
 def cmd_check(args) -> int:
     from stlc.pipeline import check_paths
 
+    from dataclasses import replace
+
     diags, sources = check_paths(args.files)
+    if args.deny_warnings:
+        diags = [replace(d, severity="error") for d in diags]
+    errors = [d for d in diags if d.severity == "error"]
     if args.format == "json":
         print(to_json(diags))
     elif diags:
         _print_diags(StlcError(diags), sources)
-    else:
+    if args.format != "json" and not errors:
         for f in args.files:
             print(f"{f}: ok")
-    return EXIT_INPUT if diags else EXIT_OK
+    return EXIT_INPUT if errors else EXIT_OK
 
 
 def cmd_monitor(args) -> int:
     from stlc.analysis.trace import read_trace
-    from stlc.pipeline import load, monitor_trace
+    from stlc.analysis.vacuity import vacuous
+    from stlc.diagnostics import emit_warnings
+    from stlc.pipeline import load, monitor_trace, monitored_formulas
 
-    program = load(args.file).program
-    trace = read_trace(args.trace)
+    loaded = load(args.file)
+    program = loaded.program
+    trace = read_trace(args.trace, resample=args.resample)
     res = monitor_trace(program, trace)
+    found = vacuous(monitored_formulas(program), trace.dt, trace.channels, program.params,
+                    trace.n)
+    emit_warnings(loaded.warnings + found, False, {args.file: program.source})
     for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
+    if trace.resampled is not None:
+        r = trace.resampled
+        print(f"note: resampled {r['samples_in']} samples onto steps of {r['dt']:g} s "
+              f"(linear interpolation); the largest gap in the log is {r['largest_gap']:g} s "
+              f"after t = {r['gap_at']:g} s", file=sys.stderr)
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
         from stlc.strictjson import strict_dumps
 
-        print(strict_dumps({"specs": res}))
+        print(strict_dumps({"specs": res, **({"resampled": trace.resampled}
+                                             if trace.resampled is not None else {})}))
     else:
         width = max((len(k) for k in res), default=4)
         print(f"{'spec':<{width}}  {'robustness':>12}  satisfied")
         for k, v in res.items():
             sat = {True: "yes", False: "no", None: "undefined"}[v["satisfied"]]
             print(f"{k:<{width}}  {v['robustness']:>12.6g}  {sat}")
+    if args.fail_on_violation and any(v["satisfied"] is not True for v in res.values()):
+        return EXIT_UNSAT
     return EXIT_OK
 
 
@@ -214,7 +257,8 @@ def cmd_compile(args) -> int:
     from stlc.pipeline import compile_file
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
-                        risk=not args.no_risk, backend=args.backend)
+                        risk=not args.no_risk, time_limit=args.time_limit, started=_STARTED,
+                        deny_warnings=args.deny_warnings, backend=args.backend)
 
 
 def cmd_simulate(args) -> int:
@@ -223,7 +267,8 @@ def cmd_simulate(args) -> int:
 
     fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None
     return simulate_file(args.file, out=args.out, mission=args.mission,
-                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet)
+                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
+                         time_limit=args.time_limit)
 
 
 def cmd_risk(args) -> int:

@@ -91,6 +91,11 @@ CODES: dict[str, str] = {
     "STL604": "trace time column is not uniform",
     # output files
     "STL605": "cannot write the output directory",
+    # warnings (`stlc.semantics.lint`, `stlc.analysis.vacuity`): exit 0 unless --deny-warnings
+    "STLW01": "a binary operator's right operand is outside the temporal operator before it",
+    "STLW02": "an implication holds only vacuously on the plan",
+    "STLW03": "a region lies outside the workspace",
+    "STLW04": "declared and never used",
 }
 
 
@@ -311,3 +316,27 @@ def render_all(diags: list[Diagnostic], sources: dict[str, str] | None = None) -
 
 def to_json(diags: list[Diagnostic]) -> str:
     return json.dumps({"diagnostics": [d.to_json() for d in diags]}, indent=2)
+
+
+def emit_warnings(warnings: list[Diagnostic], deny: bool,
+                  sources: dict[str, str] | None = None) -> None:
+    """Print ``warnings`` to stderr (``warning[STLWxx]``); with ``deny``
+    (``--deny-warnings``) raise them as errors instead."""
+    import sys
+    from dataclasses import replace
+
+    if not warnings:
+        return
+    if deny:
+        raise StlcError([replace(w, severity="error") for w in warnings])
+    if sources is None:
+        sources = {}
+        for f in {w.span.file for w in warnings if w.span.file}:
+            try:
+                with open(f, encoding="utf-8", errors="replace") as fh:
+                    sources[f] = fh.read().removeprefix("\ufeff")
+            except OSError:
+                pass
+    print(render_all(warnings, sources), file=sys.stderr)
+    n = len(warnings)
+    print(f"stlc: {n} warning{'s' if n != 1 else ''}", file=sys.stderr)

@@ -14,7 +14,10 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
-from stlc.diagnostics import Diagnostic, Span, StlcError
+import numpy as np
+
+from stlc import deadline
+from stlc.diagnostics import Diagnostic, Span, StlcError, emit_warnings
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
@@ -25,16 +28,19 @@ from stlc.semantics.check import check
 class Loaded:
     program: model.Program
     timing: dict[str, float] = field(default_factory=dict)
+    warnings: list[Diagnostic] = field(default_factory=list)  # STLWxx (stlc.semantics.lint)
 
 
 def load(path: str) -> Loaded:
     """Parse and check a file; raises ``StlcError`` with every diagnostic."""
+    from stlc.semantics.lint import lint
+
     t0 = time.perf_counter()
     tree = parse_file(path)
     t1 = time.perf_counter()
     program = check(tree)
     t2 = time.perf_counter()
-    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1})
+    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1}, lint(tree, program))
 
 
 def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
@@ -44,6 +50,7 @@ def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
     for p in paths:
         try:
             loaded = load(p)
+            diags.extend(loaded.warnings)
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
@@ -113,8 +120,10 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
          step: float | None = None, horizon: float | None = None,
          backend: str | None = None):
     """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
+    from stlc.analysis.vacuity import plan_warnings
     from stlc.backends.base import run_chain
     from stlc.backends.select import chain_record, select
+    from stlc.planning.fallback import fallback, time_limited
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import verify
 
@@ -124,7 +133,11 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
         print(f"{mission.name}: chain `{chain.name}`"
               f"{' (forced)' if chain.forced else ''}: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
-    sol, sols = run_chain(problem, chain.backends)
+    try:
+        sol, sols = run_chain(problem, chain.backends)
+    except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
+        deadline.caught()
+        sol, sols = fallback(problem), []
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     sol.solver["chain"] = chain_record(chain, sols)
@@ -133,10 +146,12 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     sol.timing["verify_s"] = time.perf_counter() - t0
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
-    if sol.status != "satisfied":
+    if sol.status != "satisfied" and not deadline.expired():
         from stlc.backends.milp_conflict import explain_infeasible
 
         explain_infeasible(problem, sol, quiet=quiet)
+    time_limited(sol)
+    sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
 
 
@@ -144,9 +159,9 @@ def _falls_back(chain, sol) -> bool:
     """An exact chain chosen by capability that stopped without a satisfying plan and
     without a proof of its optimum (a time limit, no incumbent) hands the problem to the
     general chain: a point-mass mission too large for the MILP's budget is still planned
-    (locally) as before the exact backend existed."""
+    (locally) as before the exact backend existed.  Not once the run's time limit is out."""
     return (chain.name == "milp" and not chain.forced and sol.status != "satisfied"
-            and not sol.solver.get("converged", False))
+            and not sol.solver.get("converged", False) and not deadline.expired())
 
 
 def _fallback(problem, first, quiet: bool):
@@ -162,7 +177,11 @@ def _fallback(problem, first, quiet: bool):
         print(f"{problem.mission.name}: the exact MILP stopped without a satisfying plan "
               f"({first.solver.get('return_status')}); falling back to chain `nlp`: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
-    sol, sols = run_chain(problem, chain.backends)
+    try:
+        sol, sols = run_chain(problem, chain.backends)
+    except deadline.TimeLimitReached:
+        deadline.caught()
+        return first
     sol.solver["chain"] = {**chain_record(chain, sols), "fallback_from": first.solver["chain"]}
     t0 = time.perf_counter()
     verify(problem, sol)
@@ -176,6 +195,26 @@ def _fallback(problem, first, quiet: bool):
     first.notes.append("the `nlp` chain, tried after the MILP stopped, found no better plan "
                        f"(exact robustness {b:.6g})")
     return first
+
+
+def plan_in_time(program: model.Program, mission: model.Mission, *, quiet: bool = True,
+                 backend: str | None = None):
+    """``plan`` under the run's time limit: when the watchdog's ``TimeLimitReached`` lands
+    outside the backend chain (an import, the problem's construction), the fallback plan
+    is verified and returned all the same (``stlc.deadline``)."""
+    try:
+        return plan(program, mission, quiet=quiet, backend=backend)
+    except deadline.TimeLimitReached:
+        from stlc.planning.fallback import fallback, time_limited
+        from stlc.planning.problem import from_mission
+        from stlc.planning.verify import verify
+
+        deadline.caught()
+        problem = from_mission(program, mission)
+        sol = fallback(problem)
+        verify(problem, sol)
+        time_limited(sol)
+        return problem, sol
 
 
 def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
@@ -205,14 +244,21 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 
 
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
-                 quiet: bool = False, risk: bool = True, backend: str | None = None) -> int:
-    """``stlc compile``: every selected mission planned, verified, assessed, written."""
+                 quiet: bool = False, risk: bool = True, time_limit: float | None = None,
+                 started: float | None = None, deny_warnings: bool = False,
+                 backend: str | None = None) -> int:
+    """``stlc compile``: every selected mission planned, verified, assessed, written.
+    ``time_limit`` (s, from the start of the command; shared by the missions in turn)
+    stops the search and writes the best verified plan (``stlc.deadline``); ``backend``
+    forces a chain (``stlc.backends.select``)."""
     from stlc.output import compile as outputs
 
     t0 = time.perf_counter()
+    start = time.monotonic() if started is None else started
     loaded = load(path)
     program = loaded.program
     missions = select_missions(path, program, mission)
+    emit_warnings(loaded.warnings, deny_warnings, {path: program.source})
     several = len(missions) > 1
     base = out if out is not None else "reports"
     outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
@@ -225,19 +271,38 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
             preflight(out, span)
         preflight(outdirs[m.name], span)
     code = EXIT_OK
-    for m in missions:
+    for i, m in enumerate(missions):
         t1 = time.perf_counter()
-        _, sol = plan(program, m, quiet=quiet, backend=backend)
-        sol.timing.update(loaded.timing)
-        if risk and m.risk is not None:
-            assess_risk(program, m, sol)
+        # the last (or only) mission ends with the command's limit; earlier ones get an
+        # equal part of what is left
+        last = i == len(missions) - 1
+        share = None if time_limit is None else time_limit if last else \
+            (time_limit - (time.monotonic() - start)) / (len(missions) - i)
+        with deadline.limited(deadline.mission_limit(m.options, time_limit, share),
+                              start=start if time_limit is not None and last else None,
+                              overrun=outputs.overrun_writer(program, m, outdirs[m.name], code,
+                                                               quiet)):
+            _, sol = plan_in_time(program, m, quiet=quiet, backend=backend)
+            sol.timing.update(loaded.timing)
+            if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
+                sol.notes.append("the risk cases were not assessed: the time limit ran out "
+                                 "(`stlc risk` assesses them on trajectory.csv)")
+            elif risk and m.risk is not None:
+                assess_risk(program, m, sol)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
+        found = list(sol.diagnostics)  # the plan's own warnings (STLW02)
+        sol.diagnostics[:0] = loaded.warnings  # the report lists the file's too
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
         if sol.status != "satisfied":
             code = EXIT_UNSAT
+        if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
+            emit_warnings([replace(w, severity="error") for w in found] if deny_warnings
+                          else found, False, {path: program.source})
+            if deny_warnings:
+                code = EXIT_UNSAT
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code
@@ -345,9 +410,22 @@ def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfi
                                     "`safety`; keep only those")]) from None
 
 
+def _replan_defaults(program: model.Program, m: model.Mission, cfg: model.ReplanConfig
+                     ) -> model.ReplanConfig:
+    """T_g from the vehicles' acceleration limits when the mission does not give it."""
+    from stlc import vehicles
+    from stlc.replan.explain import default_waypoint_period
+
+    if "waypoint_period" in cfg.given or not m.vehicles:
+        return cfg
+    acc = np.min([vehicles.model_of(program.vehicles[v]).kinematic_limits(
+        program.vehicles[v])[1] for v in m.vehicles], axis=0)
+    return replace(cfg, waypoint_period=default_waypoint_period(cfg.threshold, acc, m.step))
+
+
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
-                  quiet: bool = False) -> int:
+                  quiet: bool = False, time_limit: float | None = None) -> int:
     """``stlc simulate``: compile the mission, fly it through its events (disturbances with
     event-triggered replanning, or a drone failure with a backup's takeover), verify the
     executed trajectory and write the compile outputs plus ``replan.json`` and
@@ -368,10 +446,13 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     dist, fails = simulation_events(path, program, m, disturbances, failures)
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, mission_span(path, m))
-    cfg = m.replan or model.ReplanConfig()
+    cfg = _replan_defaults(program, m, m.replan or model.ReplanConfig())
     if dist:
         _check_kept(program, m, cfg)
-    problem, sol = plan(program, m, quiet=quiet)
+    # the time limit bounds planning the nominal plan (replans have their budget t_c)
+    with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
+                          start=time.monotonic() - (time.perf_counter() - t0)):
+        problem, sol = plan_in_time(program, m, quiet=quiet)
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
     try:

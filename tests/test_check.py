@@ -54,6 +54,8 @@ vehicle hexa : multirotor {
 
 def mission(body: str, vehicles: str = TEAM3, scenario: str = "", horizon: str = "4 s",
             step: str = "0.5 s") -> model.Mission:
+    if vehicles == TEAM3 and "vehicles" not in body and "team =" not in body:
+        body = "  vehicles = [uav1, uav2, uav3]\n" + body  # several declared: say which
     src = (vehicles + scenario + f"mission m {{\n  horizon = {horizon}\n  step = {step}\n"
            + body + "\n}\n")
     return program(src).missions["m"]
@@ -309,7 +311,8 @@ def test_forall_pairs_expands_to_unordered_pairs():
 
 def test_forall_pairs_with_four_vehicles():
     team = TEAM3 + point_mass("uav4", (3, 0, 1))
-    m = mission("  require forall d, e in team: dist(d.pos, e.pos) >= 1 m", vehicles=team)
+    m = mission("  vehicles = [uav1, uav2, uav3, uav4]\n"
+                "  require forall d, e in team: dist(d.pos, e.pos) >= 1 m", vehicles=team)
     assert len(m.requirement.args) == 6
 
 
@@ -413,8 +416,9 @@ def test_top_level_specs_are_checked_against_the_mission_step():
 
     src = (TEAM3 + "spec a = always[0, 0.75] uav1.pos.z > 0\n"
            "spec b = eventually[0, 1] a\n"
-           "mission m {\n  horizon = 4 s\n  step = 0.5 s\n  require a and b and always a\n}\n"
-           "mission n {\n  horizon = 3 s\n  step = 0.25 s\n  require b\n}\n")
+           "mission m {\n  vehicles = [uav1]; horizon = 4 s\n  step = 0.5 s\n"
+           "  require a and b and always a\n}\n"
+           "mission n {\n  vehicles = [uav1]; horizon = 3 s\n  step = 0.25 s\n  require b\n}\n")
     with pytest.raises(StlcError) as e:
         program(src)
     diags = e.value.diagnostics

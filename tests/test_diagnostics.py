@@ -31,7 +31,8 @@ from stlc.semantics.check import check
 FIXTURES = Path(__file__).parent / "diagnostics"
 FILES = sorted(FIXTURES.glob("*.stl"))
 
-EXPECT = re.compile(r"#\s*E:\s*(?P<codes>(?:STL\d{3}\s*)+)(?:#\s*H:\s*(?P<help>.*?))?\s*$")
+EXPECT = re.compile(r"#\s*[EW]:\s*(?P<codes>(?:STLW?\d{2,3}\s*)+)"
+                    r"(?:#\s*H:\s*(?P<help>.*?))?\s*$")
 XFAIL = re.compile(r"^#\s*XFAIL:\s*(?P<reason>.+)$", re.M)
 
 #: codes the front end (syntax + check) can emit; each must be exercised by a test here
@@ -51,12 +52,24 @@ def expectations(text: str) -> tuple[set[tuple[int, str]], dict[int, str]]:
 
 
 def front_end(path: str) -> list[Diagnostic]:
-    """Diagnostics of parse + check for a file ([] if the file is fine)."""
+    """Diagnostics of parse + check for a file; when it checks, its warnings (``# W:``):
+    the lint's, and the vacuous implications (STLW02) of its top-level specs on the trace
+    ``<fixture>.csv`` when there is one."""
+    from stlc.analysis.trace import read_trace
+    from stlc.analysis.vacuity import vacuous
+    from stlc.semantics.lint import lint
+
     try:
-        check(parse_file(path))
+        tree = parse_file(path)
+        program = check(tree)
     except StlcError as e:
         return e.diagnostics
-    return []
+    out = lint(tree, program)
+    trace = Path(path).with_suffix(".csv")
+    if trace.exists():
+        tr = read_trace(str(trace))
+        out += vacuous(dict(program.specs), tr.dt, tr.channels, program.params, tr.n)
+    return sorted(out, key=Diagnostic.sort_key)
 
 
 def diagnose(text: str, file: str = "<test>") -> list[Diagnostic]:
@@ -111,7 +124,7 @@ def test_fixture(path: Path):
         assert 1 <= d.span.line <= n_lines and d.span.col >= 1, d
     assert diags == sorted(diags, key=Diagnostic.sort_key)
     rendered = render_all(diags, {str(path): text})
-    assert rendered.count("error[") == len(diags)
+    assert rendered.count("error[") + rendered.count("warning[") == len(diags)
 
 
 def test_every_front_end_code_is_exercised():
@@ -372,3 +385,23 @@ def test_second_risk_block_is_reported_once():
            "  risk { K = 10; case a { } }\n  risk { K = 20; case b { } }\n}\n")
     diags = diagnose(src)
     assert [(d.span.line, d.code) for d in diags] == [(7, "STL102")]
+
+
+# ---------------------------------------------------------------- warnings (STLWxx)
+
+
+def test_no_warnings_on_shipped_specs():
+    from stlc.semantics.lint import lint
+
+    root = Path(__file__).resolve().parent.parent
+    for f in sorted((root / "specs").glob("*.stl")) + sorted((root / "tests" / "missions")
+                                                            .glob("*.stl")):
+        tree = parse_file(str(f))
+        assert lint(tree, check(tree)) == [], f.name
+
+
+def test_every_warning_code_has_a_fixture():
+    in_fixtures = set()
+    for f in FILES:
+        in_fixtures |= {code for _, code in expectations(f.read_text(encoding="utf-8"))[0]}
+    assert {c for c in CODES if c.startswith("STLW")} <= in_fixtures

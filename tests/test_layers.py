@@ -33,7 +33,7 @@ from collections import defaultdict
 from test_import_graph import graph
 
 LAYERS: list[set[str]] = [
-    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas"},
+    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas", "deadline"},
     {"frontend"},
     {"vehicles"},
     {"semantics"},

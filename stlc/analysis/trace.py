@@ -16,6 +16,11 @@ are skipped,
 a UTF-8 byte-order mark is ignored, names and values may be padded with spaces and names
 may be double-quoted.  ``check_signals`` reports STL603 for columns a formula needs.
 
+``read_trace(path, resample=DT)`` (``stlc monitor --resample DT``, for real flight logs
+with jitter) accepts any increasing ``t`` and interpolates every column linearly onto
+``t_0, t_0 + DT, …`` (≤ t_last); ``Trace.resampled`` notes the largest gap between the
+log's samples (and where), which bounds what the interpolation may have missed.
+
 ``Trace.dt`` is ``(t_last - t_0) / (n - 1)`` rounded to 10 significant digits (so 0.1 s
 written as text is 0.1, not 0.09999999999999999); a one-row trace gets ``dt = 1.0``, which
 is harmless: with a single sample only windows starting at 0 are non-empty, for any dt.
@@ -55,6 +60,8 @@ class Trace:
     channels: dict[str, np.ndarray]
     path: str
     header_span: Span = field(default_factory=Span.none)  # the header row, for STL603
+    #: after ``resample``: {"dt", "samples_in", "largest_gap", "gap_at"} (else None)
+    resampled: dict | None = None
 
     @property
     def n(self) -> int:
@@ -141,8 +148,9 @@ def _value(text: str) -> float | str:
     return "is not a number"
 
 
-def read_trace(path: str | os.PathLike) -> Trace:
-    """Read a trace CSV file; raise ``StlcError`` (STL601/602/604) on any bad input."""
+def read_trace(path: str | os.PathLike, resample: float | None = None) -> Trace:
+    """Read a trace CSV file; raise ``StlcError`` (STL601/602/604) on any bad input.
+    With ``resample`` (s > 0) the time column need only increase (see the docstring)."""
     path = os.fspath(path)
     if not isinstance(path, str):
         path = os.fsdecode(path)
@@ -184,9 +192,11 @@ def read_trace(path: str | os.PathLike) -> Trace:
     if diags:
         raise StlcError(diags)
     times = data[:, 0]
-    _check_uniform(path, times, rows[1:], diags)
+    _check_uniform(path, times, rows[1:], diags, uniform=resample is None)
     if diags:
         raise StlcError(diags)
+    if resample is not None:
+        return _resampled(path, data, names, float(resample), header_span)
     n = len(times)
     with np.errstate(over="ignore", invalid="ignore"):
         dt = float(f"{(times[-1] - times[0]) / (n - 1):.10g}") if n > 1 else 1.0
@@ -197,8 +207,21 @@ def read_trace(path: str | os.PathLike) -> Trace:
     return Trace(times.copy(), dt, channels, path, header_span)
 
 
+def _resampled(path: str, data: np.ndarray, names: list[str], dt: float,
+               header_span: Span) -> Trace:
+    t = data[:, 0]
+    n = int(math.floor((t[-1] - t[0]) / dt + 1e-9)) + 1
+    grid = t[0] + dt * np.arange(n)
+    channels = {name: np.interp(grid, t, data[:, c]) for c, name in enumerate(names) if c}
+    gaps = np.diff(t) if len(t) > 1 else np.zeros(1)
+    k = int(np.argmax(gaps))
+    note = {"dt": dt, "samples_in": int(len(t)), "largest_gap": float(gaps[k]),
+            "gap_at": float(t[k])}
+    return Trace(grid, dt, channels, path, header_span, note)
+
+
 def _check_uniform(path: str, t: np.ndarray, rows: list[tuple[int, str]],
-                   diags: list[Diagnostic]) -> None:
+                   diags: list[Diagnostic], uniform: bool = True) -> None:
     if len(t) < 2:
         return
     with np.errstate(over="ignore", invalid="ignore"):  # 1e308 - -1e308 is inf: reported
@@ -216,6 +239,8 @@ def _check_uniform(path: str, t: np.ndarray, rows: list[tuple[int, str]],
             "STL604", f"t is not increasing: {t[i]:g} follows {t[i - 1]:g}", span(i),
             "sort the rows by time and remove repeated samples"))
         return
+    if not uniform:
+        return
     dt = float(np.median(steps))
     bad = np.flatnonzero(np.abs(steps - dt) > STEP_TOLERANCE * dt)
     if bad.size:
@@ -223,7 +248,8 @@ def _check_uniform(path: str, t: np.ndarray, rows: list[tuple[int, str]],
         diags.append(Diagnostic(
             "STL604", f"t is not uniform: step {steps[i - 1]:g} s from {t[i - 1]:g} to {t[i]:g},"
             f" the other steps are {dt:g} s", span(i),
-            f"resample the trace to a uniform step (e.g. {dt:g} s)"))
+            f"resample the trace to a uniform step (e.g. {dt:g} s), or let `stlc monitor "
+            f"--resample {dt:g}` interpolate it"))
 
 
 def check_signals(trace: Trace, needed: set[str],

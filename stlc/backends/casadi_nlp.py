@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from stlc import vehicles
-from stlc.backends import choices, derivatives
+from stlc import deadline, vehicles
+from stlc.backends import choices, derivatives, flyable
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
@@ -226,9 +226,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     g_list, lbg, ubg = [], [], []
     lbx = np.full(w.numel(), -np.inf)
     ubx = np.full(w.numel(), np.inf)
-    energy = ca.SX(0)
-    fwd = ca.SX(0)
-    reg = ca.SX(0)
+    energy, fwd, reg = ca.SX(0), ca.SX(0), ca.SX(0)
     for L in layouts:
         v = L.vehicle
         vm = vehicles.model_of(v)
@@ -258,6 +256,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
             vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)
             fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
     n_dyn = sum(x.numel() for x in g_list)
+    fly = flyable.add_rows(g_list, lbg, ubg, mission, layouts, wt, n)  # holdable end, heading
     cons, lb_r, ub_r = lowered.constraints()
     g_list.append(cons)
     lbg.append(lb_r)
@@ -267,7 +266,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     lbg.append(np.array([-np.inf]))
     ubg.append(np.array([np.inf]))
     g = ca.vertcat(*g_list)
-    obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg
+    obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg + fly
     nlp = {"x": w, "p": p, "f": obj, "g": g}
     opts = dict(IPOPT_DEFAULTS)
     # developer knob: extra solver options as JSON, e.g. STLC_IPOPT='{"ipopt.print_level": 5}'
@@ -357,8 +356,7 @@ class Progress(ca.Callback):
         ca.Callback.__init__(self)
         self.nx, self.ng, self.np_ = nx, ng, np_
         self.root_fn, self.label, self.every, self.stream = root_fn, label, every, stream
-        self.quiet = quiet
-        self.it = 0
+        self.quiet, self.it = quiet, 0
         self.limit = 10**9  # stop the current solve after this many iterations
         self.p = np.zeros(np_)
         #: anytime tracking: ``verify(x, g)`` returns the exact robustness of a dynamically
@@ -376,10 +374,9 @@ class Progress(ca.Callback):
     def reset(self) -> None:
         self.it = 0
         self.best_x: np.ndarray | None = None
-        self.best_exact = -np.inf
-        self.best_score = -np.inf
+        self.best_exact = self.best_score = -np.inf
         self.best_it = 0
-        self.t_verify = 0.0
+        self.t_verify, self.timed_out = 0.0, False
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -415,8 +412,10 @@ class Progress(ca.Callback):
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
             ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"
+            ex += deadline.progress_note()
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
                   f"smooth {rho:+.4f}  exact {ex}", file=self.stream or sys.stderr, flush=True)
         self.it += 1
         stagnant = self.best_exact >= self.kappa and self.it - self.best_it > self.patience
-        return [1 if self.it >= self.limit or stagnant else 0]
+        self.timed_out = deadline.solve_expired()  # the run's time limit (stlc.deadline)
+        return [1 if self.it >= self.limit or stagnant or self.timed_out else 0]

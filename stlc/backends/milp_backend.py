@@ -27,6 +27,7 @@ from stlc.backends.milp_encode import Encoder, NotLinear, Term, affine
 from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_vehicle
 from stlc.diagnostics import Diagnostic
 from stlc.planning.solution import Solution, Verdict
+from stlc import deadline
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
@@ -200,7 +201,7 @@ class ExactMilp(Backend):
         t = problem.mission.options.get("time_limit")
         if t is None:
             t = self.time_limit if self.time_limit is not None else TIME_LIMIT_S
-        return float(t)
+        return float(min(float(t), max(deadline.solve_remaining(), 0.01)))
 
     def solve(self, low: Lowered, problem: PlanningProblem):
         """Two phases on one model: a plan with ρ̂ ≥ κ first (a feasibility MILP, usually

@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 
-from stlc import vehicles
+from stlc import deadline, vehicles
 from stlc.backends.milp_backend import build
 from stlc.backends.milp_encode import NotLinear
 from stlc.backends.milp_model import Highs
@@ -188,7 +188,8 @@ def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
         ck = _Checker(problem, formulas, lins)
     except (NotLinear, ValueError):
         return False
-    left = lambda: TOTAL_LIMIT_S - (time.perf_counter() - t0)  # noqa: E731
+    left = lambda: min(TOTAL_LIMIT_S - (time.perf_counter() - t0),  # noqa: E731
+                       deadline.solve_remaining())
     if ck.infeasible([REQUIRE], min(SOLVE_LIMIT_S, left())) is not True:
         return False
     # a minimal conflict among the required specs (the `require` line only if needed)

@@ -37,7 +37,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from stlc import interrupt, vehicles
+from stlc import deadline, interrupt, vehicles
 from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
@@ -103,6 +103,8 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
         vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
         vlo[:, 0] = vhi[:, 0] = vel0
+        if mission.options.get("end", "hover") != "free":  # a holdable end (flyable.py)
+            vlo[:, -1] = vhi[:, -1] = 0.0
         syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
         lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
         ubx += [phi_.T.ravel(), vhi.T.ravel(), np.tile(amax, N)]
@@ -127,7 +129,8 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
                            {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
                             "ipopt.mu_strategy": "adaptive", **GUESS_ACCEPTABLE,
-                            **{f"ipopt.{k}": v for k, v in MUMPS.items()}})
+                            **{f"ipopt.{k}": v for k, v in MUMPS.items()},
+                            **deadline.ipopt_options()})  # the run's time limit, if any
         num_ch = {}
         for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
             for i, a in enumerate("xyz"):
@@ -224,6 +227,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
                   inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
     from stlc.analysis import smooth
 
+    deadline.disarm()  # from here every solve and stage checks the time limit itself
     params = program.params
     obj = mission.objective
     kappa = mission.threshold
@@ -240,6 +244,8 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         status = STATUS_MAP.get(ret, SolverStatus.FAILED)
         if status == SolverStatus.MAX_ITER and "best_iterate" in stats:
             status = SolverStatus.STOPPED
+        if prob.progress.timed_out:  # stopped by the run's time limit (stlc.deadline)
+            status = SolverStatus.MAX_TIME
         t_fn = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
         st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_,
                    t_fn, prob.progress.t_verify,
@@ -270,7 +276,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
                     stats, f_, dt_)
         if best_st is None or st.exact > best_st.exact:
             best, best_st = w, st
-        if st.exact >= kappa or lam * LAM_FACTOR > LAM_MAX:
+        if st.exact >= kappa or lam * LAM_FACTOR > LAM_MAX or deadline.solve_expired():
             break
         if seeded:  # the guess's choices do not reach κ: solve the formula as written
             seeded = False
@@ -284,7 +290,8 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
     lam = best_st.lam
     result = RawResult(best, lam, stages)
     robust_w = best
-    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact >= kappa:
+    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact >= kappa \
+            and not deadline.solve_expired():
         # 2. paper A eq. 6 on the planner form: minimise w·E − ρ̃(P_κ), at the smallest λ of
         #    the schedule where the robust plan has ρ̃(P_κ) ≥ PLAN_MARGIN.  First without the
         #    constraint (−ρ̃ in the objective already keeps the plan away from ρ̃ < 0, and IPOPT
@@ -302,7 +309,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
                                      f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
                                      most_robust=False)
         st = record("energy", lam_e, w_e, stats, f_, dt_)
-        if st.exact < kappa:
+        if st.exact < kappa and not deadline.solve_expired():
             w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e,
                                          PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
                                          STAGE_ITER, PATIENCE, most_robust=False)
@@ -312,7 +319,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
             if inv.choice_nodes else {}
     for name, variant in mission.options.get("compare", []):
-        if variant is None:
+        if variant is None or deadline.solve_expired():
             continue
         if variant.energy_weight == 0 and variant.forward_weight == 0:
             result.comparisons[name] = robust_w

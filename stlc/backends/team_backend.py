@@ -131,9 +131,13 @@ class MilpSeed(Backend):
         from stlc.team.milp import BUDGET_S, assign
         from stlc.team.seed import seed_plan
 
+        from stlc import deadline
+
+        deadline.disarm()  # the MILP has a budget, each refinement solve a max_wall_time
+        budget = BUDGET_S if self.budget_s is None else self.budget_s
+        budget = max(0.1, min(budget, 0.4 * deadline.solve_remaining()))  # the run's limit
         try:
-            routes, stats = assign(scenario, budget_s=BUDGET_S if self.budget_s is None
-                                   else self.budget_s)
+            routes, stats = assign(scenario, budget_s=budget)
         except TeamError as e:
             raise StlcError([_diag(problem, e)]) from None
         t0 = time.perf_counter()

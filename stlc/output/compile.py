@@ -62,8 +62,9 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
 
 def summary(sol: Solution, outdir: str) -> None:
+    energy = f"{sol.energy:.1f} J" if sol.energy == sol.energy else "not computed"
     print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
-          f"smooth {sol.robustness_smooth:+.4f}  energy {sol.energy:.1f} J  "
+          f"smooth {sol.robustness_smooth:+.4f}  energy {energy}  "
           f"→ {outdir}/report.html")
     if sol.status == "infeasible":
         for d in sol.diagnostics:
@@ -82,3 +83,26 @@ def summary(sol: Solution, outdir: str) -> None:
                 print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
                       f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}: "
                       f"{s.binding_predicate}", file=sys.stderr)
+
+
+def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,
+                   quiet: bool):
+    """The watchdog's writer (``stlc.deadline``): the fallback plan, verified and written
+    from the watchdog thread while the planning thread is stuck in a C call; returns the
+    exit code."""
+    def write() -> int:
+        from stlc.planning.fallback import fallback, time_limited
+        from stlc.planning.problem import from_mission
+        from stlc.planning.verify import verify
+
+        problem = from_mission(program, m)
+        sol = fallback(problem)
+        verify(problem, sol)
+        time_limited(sol)
+        write_outputs(outdir, program, m, sol)
+        if not quiet or sol.status != "satisfied":
+            summary(sol, outdir)
+        from stlc.exitcodes import EXIT_UNSAT
+
+        return code if sol.status == "satisfied" else EXIT_UNSAT
+    return write

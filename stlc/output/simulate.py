@@ -55,6 +55,9 @@ def simulation_summary(sim: SimulationResult, outdir: str, quiet: bool = False) 
             print(f"  error[STL502]: {len(bad)} replan(s) not accepted (first at t = "
                   f"{bad[0].time:g} s: {bad[0].status}, {_f(bad[0].solve_s, '.3f')} s)",
                   file=sys.stderr)
+            why = bad[0].detail.get("reason") if bad[0].detail else None
+            if why:
+                print(f"  = why: {why}", file=sys.stderr)
         for k in sim.kept:
             r = sim.executed_robustness.get(k)
             if r is None or not r >= sim.threshold:

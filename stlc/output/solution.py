@@ -52,6 +52,7 @@ def solution_json_dict(sol: Solution) -> dict:
                      "events": [_event(e) for e in sol.events]}} if sol.routes else {}),
         "peak": {"speed": _peak(sol.channels, ".speed"),
                  "rotor_speed": _peak(sol.channels, ".rotor_speed.")},
+        "end_state": sol.end_state,
     }
 
 

@@ -23,6 +23,7 @@ class Verdict(enum.StrEnum):
     VIOLATED = "violated"
     SOLVER_FAILED = "solver_failed"  # no dynamically feasible plan came out of the solver
     INFEASIBLE = "infeasible"  # proved: no plan can satisfy the mission (``conflict``)
+    STOPPED = "stopped"  # the run's time limit ended the search before a satisfying plan
 
 
 @dataclass
@@ -63,7 +64,7 @@ class Window:
 @dataclass
 class Solution:
     mission: str
-    status: str  # satisfied | violated | solver_failed
+    status: str  # satisfied | violated | solver_failed | stopped
     robustness_exact: float
     robustness_smooth: float
     specs: dict[str, SpecResult]
@@ -95,3 +96,5 @@ class Solution:
     events: list = field(default_factory=list)
     #: an infeasible mission: a minimal set of named specs that cannot hold together
     conflict: list[str] = field(default_factory=list)
+    #: per vehicle: can it hold the final state (``stlc.planning.holdable``)
+    end_state: dict[str, dict] = field(default_factory=dict)

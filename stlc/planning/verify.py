@@ -127,8 +127,17 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
 
 
 def verify(problem: PlanningProblem, sol: Solution) -> Solution:
-    """``judge`` the plan and write the verdict onto ``sol`` (returned)."""
-    return judge(problem, sol).apply(sol)
+    """``judge`` the plan and write the verdict onto ``sol`` (returned); then whether the
+    vehicles can hold its final state (``stlc.planning.holdable``), and energy "not
+    computed" (NaN → null) when no vehicle has an energy model (never a made-up 0.0 J)."""
+    from stlc.planning.holdable import end_state, flag
+
+    sol = judge(problem, sol).apply(sol)
+    sol.end_state = end_state(problem.mission, problem.vehicles(), sol.channels)
+    if not any(vehicles.model_of(v).has_rotor_energy(v) for v in problem.vehicles()):
+        sol.energy, sol.energy_profile = float("nan"), None
+    sol.notes.extend(flag(problem.mission, sol.end_state))
+    return sol
 
 
 def _peak(ch: dict, key: str) -> float:

@@ -314,6 +314,15 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
                  "constraints": res.problem_size["constraints"]}
     if first:
         ev.detail["build_s"] = res.timing["build_s"]
+    if not ev.accepted:  # say why (stlc.replan.explain)
+        from stlc.replan.explain import reason
+
+        ev.detail["reason"] = reason(
+            converged=status.converged, status=str(status), within_budget=ev.within_budget,
+            solve_s=ev.solve_s, budget=cfg.compute_budget, rejoin=rejoin,
+            rejoin_tol=REJOIN_TOL, kept=ev.kept, kappa=kappa,
+            deviation=x_start[tr.pos] - tr.ref_X[g, tr.pos], segment_s=L * dt,
+            acc_max=vm.kinematic_limits(tr.vehicle)[1])
     if status.converged:
         ev.times = grid.times()[s:g + 1]
         for i, c in enumerate(vm.state_channels(tr.vehicle)):

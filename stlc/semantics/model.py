@@ -121,6 +121,9 @@ class ReplanConfig:
     compute_budget: float = 0.4  # t_c, s
     specs: tuple[str, ...] = ()  # named specs kept when replanning
     takeover_delay: float = 10.0  # T_rep, s: a backup drone starts at t_fail + T_rep
+    #: the fields the mission wrote (the others are defaults; T_g's comes from the
+    #: vehicle's limits, ``stlc.replan.explain.default_waypoint_period``)
+    given: frozenset[str] = field(default=frozenset(), compare=False)
 
 
 @dataclass(frozen=True, slots=True)

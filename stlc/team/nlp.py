@@ -27,6 +27,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
+from stlc import deadline
 from stlc.team import Drone, TeamPlan, TeamScenario, Visit
 from stlc.team.retime import Schedule
 from stlc.team.waypoints import _locate, check_times, hermite_weights, overshoot
@@ -237,6 +238,7 @@ class TeamNLP:
         gg = ca.vertcat(*g)
         opts = dict(_IPOPT)
         opts.update(ipopt or {})
+        opts.update(deadline.ipopt_options())  # the run's time limit (stlc.deadline)
         solver = ca.nlpsol("refine", "ipopt", {"x": w, "f": f, "g": gg}, opts)
         return (solver, np.concatenate(lb), np.concatenate(ub), lbx, ubx, int(gg.numel()))
 

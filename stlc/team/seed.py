@@ -142,6 +142,12 @@ def _mission_time(mission: model.Mission, field: str, fallback: float | None) ->
     return float(value)
 
 
+def _grown(b: Box, r: float) -> Box:
+    if r <= 0:
+        return b
+    return Box(b.name, tuple(x - r for x in b.lo), tuple(x + r for x in b.hi))
+
+
 def scenario_from_program(program: model.Program, mission: model.Mission, *,
                           install_time: float | None = None, refill_time: float | None = None,
                           separation: float = 0.0) -> TeamScenario:
@@ -158,6 +164,10 @@ def scenario_from_program(program: model.Program, mission: model.Mission, *,
         drones.append(Drone(name, tuple(map(float, v.start_pos)), tuple(map(float, v.vel_max)),
                             tuple(map(float, v.acc_max)), int(v.capacity)))
     scen = program.scenario
+    # `d.pos not in o` keeps each drone's radius (the checker inflates the box): plan
+    # around the obstacles grown by the largest radius of the team
+    grow = max((float(getattr(program.vehicles[n], "radius", 0.0)) for n in mission.vehicles),
+               default=0.0)
     ws = scen.by_kind("workspace")
     inf = math.inf
     workspace = _box(ws[0]) if ws else Box("workspace", (-inf,) * 3, (inf,) * 3)
@@ -165,7 +175,7 @@ def scenario_from_program(program: model.Program, mission: model.Mission, *,
         drones=tuple(drones),
         targets=tuple(_box(r) for r in scen.by_kind("target")),
         stations=tuple(_box(r) for r in scen.by_kind("station")),
-        obstacles=tuple(_box(r) for r in scen.by_kind("obstacle")),
+        obstacles=tuple(_grown(_box(r), grow) for r in scen.by_kind("obstacle")),
         workspace=workspace,
         install_time=_mission_time(mission, "install_time", install_time),
         refill_time=_mission_time(mission, "refill_time", refill_time),

@@ -40,6 +40,8 @@ class Multirotor:
     dforce_max: float | None = None  # bound on |ξ̇| (N/s), optional
     gravity: float = 9.81
     span: Span = field(default=NO_SPAN, compare=False)
+    #: the body's radius (m): `pos not in R` keeps this clearance (R inflated by it)
+    radius: float = 0.0
 
     kind = "multirotor"
 
@@ -66,6 +68,7 @@ class PointMass:
     #: equivalent flat-plate area m², induced-power factor, air density kg/m³), or None
     aero: tuple[int, float, float, float, float] | None = None
     span: Span = field(default=NO_SPAN, compare=False)
+    radius: float = 0.0  # as Multirotor.radius
 
     kind = "point_mass"
 

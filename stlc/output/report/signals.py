@@ -303,10 +303,33 @@ class _Builder:
                  self.line(dmin, "Γ_dis", kind="distance_min", unit="m"),
                  specs=set(self.stated.get("distance_min", [])))
 
+    def clearance(self) -> None:
+        """Distance to the nearest obstacle, the radius as its limit, and its minimum."""
+        from stlc.analysis.clearance import obstacle_clearance
+
+        traces, notes, radii = [], [], set()
+        for v in self.vehicles:
+            p = [channel(self.sol, f"{v}.pos.{a}") for a in "xyz"]
+            veh = self.program.vehicles.get(v)
+            if any(c is None for c in p) or veh is None:
+                continue
+            d = obstacle_clearance(self.program.scenario, np.stack(p, axis=1))
+            if d is None:
+                return
+            r = float(getattr(veh, "radius", 0.0))
+            radii.add(r)
+            k = int(np.argmin(d))
+            traces.append({"name": self.tag(v, "clearance"), "y": nums(d)})
+            notes.append(f"{v}: minimum clearance {d[k]:.3f} m at t = {self.t[k]:g} s "
+                         f"(radius {r:g} m{'' if d[k] >= r - 1e-9 else ', BELOW it'})")
+        bnds = [b for r in sorted(radii) if r > 0 for b in self.line(r, "radius", unit="m")]
+        self.add("sig-clearance", "Clearance to the nearest obstacle", "m", traces, bnds,
+                 note="; ".join(notes), specs=set())
+
     def payload(self) -> None:
         traces = [{"name": v, "y": nums(c), "shape": "hv"} for v in self.vehicles
                   if (c := channel(self.sol, f"{v}.payload")) is not None]
-        self.add("sig-payload", "Payload (diverters on board)", "", traces,
+        self.add("sig-payload", "Payload (items on board)", "", traces,
                  prefixes=tuple(f"{v}.payload" for v in self.vehicles))
 
 
@@ -317,7 +340,7 @@ def signals(program: Program, mission: Mission, sol: Solution, wins: list[dict],
     formulas = spec_formulas(program, mission, sol)
     b = _Builder(program, mission, sol, formulas, wins)
     for step in (b.position, b.speed, b.point_mass_limits, b.rotors, b.forces, b.heading,
-                 b.distances, b.payload):
+                 b.distances, b.clearance, b.payload):
         step()
     timeline = _timeline(rows, wins, float(b.t[-1]) if b.t.size else mission.horizon)
     return {"t": nums(b.t), "plots": b.plots, "windows": wins, "markers": markers,

@@ -38,7 +38,8 @@ from .signals import signals, spec_formulas, windows
 from .team_view import team
 
 STATUS_LABELS = {"satisfied": "Satisfied", "violated": "Violated",
-                 "solver_failed": "Solver failed", "infeasible": "No plan exists"}
+                 "solver_failed": "Solver failed", "infeasible": "No plan exists",
+                 "stopped": "Stopped (time limit)"}
 STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "smooth ρ̃", "exact": "exact ρ"}
 #: stage columns holding a robustness (shown with a sign)
 SIGNED_STAGE_KEYS = ("smooth", "exact")
@@ -267,6 +268,11 @@ def _banner(sol: Solution, rows: list[dict]) -> dict | None:
                 f"“{sol.solver.get('return_status', 'unknown')}” after "
                 f"{sol.solver.get('iterations', '?')} iterations; the plan below is its last "
                 f"iterate.")
+    elif sol.status == "stopped":
+        title = "Stopped by the time limit"
+        lead = (f"The time limit of {sol.solver.get('time_limit_s', '?')} s ended the search "
+                f"before a satisfying plan was found; the plan below is the best verified one "
+                f"(exact robustness {fmt(sol.robustness_exact, signed=True)}).")
     else:
         title = "Mission violated"
         lead = (f"No satisfying plan was found: exact robustness "

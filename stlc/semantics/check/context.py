@@ -110,11 +110,22 @@ class Context(ABC):
         self.humans: dict[str, model.Human] = {}
         #: human name → {region name: RegionV} (regions in the human's frame)
         self.human_regions: dict[str, dict[str, RegionV]] = {}
+        #: names bound by a quantifier whose body has ended (for the hint of a name used
+        #: after an unparenthesised body: `forall d in team: p(d) and q(d)`)
+        self.closed_quant: dict[str, Span] = {}
         self.params: dict[str, float] = {}
         self.defined: dict[str, Span] = {}
         #: names whose declaration had errors: bound to ``ErrorV`` so that uses stay silent
         self.failed: set[str] = set()
         self.where = tree.members[0].span if tree.members else Span.none()  # for STL004
+
+    def human_region_hint(self, name: str) -> str | None:
+        """``handover`` is a human's region: say it is written ``op.handover``."""
+        owners = [h for h, regs in self.human_regions.items() if name in regs]
+        if not owners:
+            return None
+        return (f"`{name}` is a region of human `{owners[0]}`: write `{owners[0]}.{name}` "
+                "(a human's regions move with the human and carry its name)")
 
     # ------------------------------------------------------------ implemented elsewhere
     @abstractmethod
@@ -325,6 +336,7 @@ class Context(ABC):
         def hook(name: str, span: Span) -> Value | None:
             if current and name == current[0]:
                 self.d.error("STL106", f"spec `{name}` refers to itself", span,
+                             self.human_region_hint(name) or
                              "a formula cannot be recursive; use `always` or `eventually` to "
                              "repeat it over time")
                 return ERROR
@@ -396,9 +408,15 @@ def misaligned(t: float, step: float) -> bool:
     return not is_aligned(t, step)
 
 
-def nearest_hint(t: float, step: float) -> str | None:
+def nearest_hint(t: float, step: float, horizon: float | None = None) -> str | None:
+    """``use 0.9 s``: the nearest bound on the grid (not past ``horizon`` when given)."""
     q = t / step
-    return f"use {round(q) * step:g} s" if math.isfinite(q) else None
+    if not math.isfinite(q):
+        return None
+    k = round(q)
+    if horizon is not None and k * step > horizon + 1e-9:
+        k = math.floor(q)
+    return f"use {k * step:g} s"
 
 
 def misaligned_intervals(f: ir.Formula, step: float) -> Iterator[tuple[ir.Formula, float]]:

@@ -71,7 +71,7 @@ def _start(ck: Context, b: ast.Block, keys: dict[str, units.Dim]) -> dict[str, t
 def _multirotor(ck: Context, b: ast.Block) -> model.Multirotor | None:
     f = ck.fields(b, {"mass": True, "inertia": True, "c_f": True, "c_tau": True,
                       "force": True, "rotors": False, "dforce_max": False,
-                      "gravity": False}, sub_blocks=("start", "rotor"))
+                      "gravity": False, "radius": False}, sub_blocks=("start", "rotor"))
     mass = ck.num(f, "mass", units.MASS, positive=True)
     c_f = ck.num(f, "c_f", None, positive=True)
     c_tau = ck.num(f, "c_tau", None, positive=True)
@@ -123,7 +123,7 @@ def _multirotor(ck: Context, b: ast.Block) -> model.Multirotor | None:
         start_att=start.get("att") or (0.0, 0.0, 0.0),
         start_vel=start.get("vel") or (0.0, 0.0, 0.0),
         start_rate=start.get("rate") or (0.0, 0.0, 0.0),
-        dforce_max=dfmax, gravity=gravity, span=b.span)
+        dforce_max=dfmax, gravity=gravity, span=b.span, radius=_radius(ck, f))
     _check_hover(ck, v, b)
     return v
 
@@ -185,7 +185,8 @@ def _rotors(ck: Context, b: ast.Block, f: dict) -> tuple[model.Rotor, ...] | Non
 
 def _point_mass(ck: Context, b: ast.Block) -> model.PointMass | None:
     f = ck.fields(b, {"vel_max": True, "acc_max": True, "capacity": False, "mass": False,
-                      **{k: False for k in AERO_FIELDS}}, sub_blocks=("start",))
+                      "radius": False, **{k: False for k in AERO_FIELDS}},
+                  sub_blocks=("start",))
     vmax = ck.vec(f, "vel_max", 3, units.SPEED)
     amax = ck.vec(f, "acc_max", 3, units.ACCEL)
     cap = ck.num(f, "capacity", units.DIMLESS)
@@ -204,7 +205,19 @@ def _point_mass(ck: Context, b: ast.Block) -> model.PointMass | None:
         return None
     return model.PointMass(b.name, vmax, amax, start["pos"],  # type: ignore[arg-type]
                            start.get("vel") or (0.0, 0.0, 0.0),
-                           None if cap is None else int(cap), mass, aero, b.span)
+                           None if cap is None else int(cap), mass, aero, b.span,
+                           _radius(ck, f))
+
+
+def _radius(ck: Context, f: dict) -> float:
+    """``radius = 0.4 m``: the body's clearance (0 when not given; ≥ 0, finite)."""
+    r = ck.num(f, "radius", units.LENGTH, 0.0)
+    if r is None:
+        return 0.0
+    if r < 0:
+        ck.d.error("STL207", "`radius` must be >= 0", f["radius"].value.span)
+        return 0.0
+    return float(r)
 
 
 #: paper B eq. 8: the data of the energy-aware forward speed v* (air density optional)

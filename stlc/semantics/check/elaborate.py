@@ -165,8 +165,12 @@ class ExpressionElaborator(Context):
             v = Num(np.array(x), dim)
         if v is None:
             cands = scope.all_names(BUILTIN_CONSTS)
+            q = self.closed_quant.get(head)
+            hint = (f"`{head}` is bound by the quantifier at line {q.line}, whose body ended "
+                    "before this operator (its body is a prefix-level formula): parenthesise "
+                    "the body, e.g. `forall d in team: (a and b)`") if q is not None else None
             return self.err("STL101", f"unknown name `{head}`", _head_span(n),
-                            did_you_mean(head, cands))
+                            hint or self.human_region_hint(head) or did_you_mean(head, cands))
         for i, part in enumerate(n.parts[1:], start=1):
             if isinstance(v, ErrorV):  # a declaration with errors, already reported
                 return v
@@ -315,6 +319,7 @@ def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
         "speed": scal(speed, units.SPEED, f"{n}.speed"),
         "horizontal_speed": scal(hspeed, units.SPEED, f"{n}.horizontal_speed"),
         "course": scal(ir.Call("atan2", (vy, vx)), units.ANGLE, f"{n}.course"),
+        "radius": Num(np.asarray(float(getattr(v, "radius", 0.0))), units.LENGTH),  # a constant
     }
     for name, fld in model_of(v).formula_fields(v).items():  # the model's own fields
         items = tuple(ir.Sig(c) if fld.sqrt_of_ratio is None

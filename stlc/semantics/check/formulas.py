@@ -145,6 +145,7 @@ class FormulaElaborator(Context):
             if f is None:
                 return ERROR
             parts.append(f)
+        self.closed_quant.update({name: n.span for name in n.names})
         if not parts:
             return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
         if len(parts) == 1:
@@ -248,8 +249,19 @@ class FormulaElaborator(Context):
             if not units.compatible(v.dim, units.LENGTH):
                 return self.err("STL204", "a region holds positions, found "
                                 f"{units.describe(v.dim)}", n.arg.span)
+            if n.negated:  # `pos not in R` keeps the vehicle's radius: R inflated by it
+                reg = inflated(reg, self._radius_of(v.items))
             f = box_membership(v.items, reg, self.text(n.span), n.span)
         return Form(ir.Not(f, n.span) if n.negated else f)
+
+    def _radius_of(self, items: tuple[ir.Expr, ...]) -> float:
+        """The radius of the vehicle whose position ``items`` are (0 for any other point)."""
+        names = {e.name.rpartition(".pos.")[0] for e in items
+                 if isinstance(e, ir.Sig) and ".pos." in e.name}
+        if len(names) != 1 or len(items) != 3 or not all(isinstance(e, ir.Sig) for e in items):
+            return 0.0
+        v = self.vehicles.get(names.pop())
+        return float(getattr(v, "radius", 0.0) or 0.0)
 
     def _v_range(self, n: ast.Range, scope: Scope) -> Value:
         return self.err("STL208", "a range [lo, hi] may only follow `in`", n.span)
@@ -288,6 +300,17 @@ def _labels(v: Sym, n: int) -> list[str]:
     """Component names of a signal value, one per compared component."""
     labels = list(v.labels) or [""]
     return labels if len(labels) == n else [labels[0]] * n
+
+
+def inflated(reg: RegionV, r: float) -> RegionV:
+    """The region grown by ``r`` on every face (in its own frame).  Outside it, a point is
+    at least ``r`` from the region along one axis, so its distance is ≥ r; boxes that touch
+    overlap by 2r once inflated, so no seam between them is left open."""
+    if r <= 0:
+        return reg
+    b = reg.box
+    box = dataclasses.replace(b, lo=tuple(x - r for x in b.lo), hi=tuple(x + r for x in b.hi))
+    return dataclasses.replace(reg, box=box)
 
 
 def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:

@@ -22,6 +22,7 @@ MISSION_FIELDS = {
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
     "backend": False,
+    "time_limit": False, "end": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
@@ -57,9 +58,18 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
                        f"use a larger step, at least {horizon / MAX_SAMPLES:.3g} s")
             horizon = step = None
         elif not is_aligned(horizon, step):
-            ck.d.error("STL305", f"horizon {horizon:g} s is not a multiple of the step "
-                       f"{step:g} s", f["horizon"].value.span)
-            horizon = None
+            # the root cause: one error naming both; the time bounds are not checked
+            # against a step that is wrong anyway (they were, one error each, before)
+            good = [s for s in (1, 0.5, 0.25, 0.2, 0.1, 0.05, 0.02, 0.01)
+                    if is_aligned(horizon, s)]
+            near = sorted(good, key=lambda s: abs(s - step))[:2]
+            ck.d.error("STL305", f"the step {step:g} s does not divide the horizon "
+                       f"{horizon:g} s ({horizon / step:.4g} steps), so no time bound of "
+                       f"mission `{name}` was checked against it", f["step"].value.span,
+                       (f"use a step that divides {horizon:g} s and your time bounds, e.g. "
+                        + " or ".join(f"{s:g} s" for s in near)) if near else
+                       "make the horizon a multiple of the step")
+            horizon = step = None
 
     vehicles = _team(ck, b, f)
     vehicles += [v for v in ck.extra_team.get(name, ()) if v in ck.vehicles and v not in vehicles]
@@ -117,10 +127,20 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
             ck.d.error("STL207", "`backend` is a backend name, e.g. `milp` or `nlp`", v.span)
         else:
             options["backend"], options["backend_span"] = txt, v.span
+    if "end" in f:  # the plan's end state: `hover` (holdable, the default) or `free`
+        v = f["end"].value
+        txt = v.parts[0] if isinstance(v, ast.Path) else getattr(v, "value", "")
+        if txt not in ("hover", "free"):
+            ck.d.error("STL207", "`end` is `hover` (the last sample can be held, the "
+                       "default) or `free`", v.span)
+        options["end"] = txt
     if "max_iter" in f:
         mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT, scope)
         if mi is not None:
             options["max_iter"] = mi
+    time_limit = ck.num(f, "time_limit", units.TIME, positive=True, scope=scope)
+    if time_limit is not None:  # `--time-limit` overrides it (stlc.deadline)
+        options["time_limit"] = time_limit
     compares = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "compare"]
     options["compare"] = [(c.name or f"variant{i + 1}", _objective(ck, c, scope))
                           for i, c in enumerate(compares)]
@@ -202,9 +222,14 @@ def _team(ck: Context, b: ast.Block, f: dict) -> list[str]:
     keys = [k for k in ("vehicles", "team", "vehicle") if k in f]
     if len(keys) > 1:
         ck.d.error("STL102", "give the mission's vehicles once", f[keys[1]].span)
-    if not keys:
-        if not ck.vehicles:
-            return []
+    if not keys:  # the only declared vehicle by default; with several, say which (STL104)
+        if len(ck.vehicles) > 1:
+            names = ", ".join(ck.vehicles)
+            ck.d.error("STL104", f"mission `{b.name or 'mission'}` does not say which vehicles "
+                       f"it plans, and the file declares {len(ck.vehicles)}: {names}",
+                       b.name_span if b.name_span.line else b.span,
+                       f"add `vehicles = [{names}]` to the mission, without the ones it does "
+                       "not mean (a backup drone stays out of the list)")
         return list(ck.vehicles)
     node = f[keys[0]].value
     items = node.items if isinstance(node, ast.List) else (node,)
@@ -400,6 +425,7 @@ def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None
                 keep.append(txt)
     if None in (thr, te, tg, tc, trep):
         return None
-    return model.ReplanConfig(thr, te, tg, tc, tuple(keep), trep)  # type: ignore[arg-type]
+    return model.ReplanConfig(thr, te, tg, tc, tuple(keep), trep,  # type: ignore[arg-type]
+                              frozenset(f))
 
 

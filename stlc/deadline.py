@@ -1,0 +1,201 @@
+"""The run's time limit (``--time-limit SECONDS`` or a mission's ``time_limit``).
+
+A process-wide deadline on the monotonic clock, set by the pipeline around one mission's
+planning and read by the solvers: IPOPT's iteration callback stops a solve when it has
+passed (the solve keeps its best *verified* iterate, as it does on its iteration limit),
+solves built per call get ``ipopt.max_wall_time`` = the time left, the solve schedule
+starts no new stage, and the team MILP gets the time left as its budget.  What is written
+is the best plan found so far, judged by the exact monitor as always; the solver log says
+``stopped_by: "time_limit"`` and ``converged: false``.
+
+The limit covers planning *and* writing: ``RESERVE_S`` (a share of the limit, at most
+``RESERVE_MAX_S``) is kept back from the solvers for verification and the outputs, and
+risk cases are skipped when the limit has run out (the report says so).
+
+Work that cannot see the limit (building an NLP, waiting for the kinematic guess) is cut by
+a watchdog: while the limit is *armed* (from ``limited`` until a solver that checks the
+limit itself calls ``disarm``), a timer raises ``TimeLimitReached`` in the planning thread
+when the solvers' share has run out (as ``stlc.interrupt`` does for Ctrl-C; a C call
+finishes first).  The pipeline then writes the best plan it has — with nothing found yet,
+the vehicles hovering at their start — judged by the exact monitor.
+
+Ctrl-C is not a time limit: it still stops at once and writes nothing (``stlc.interrupt``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import math
+import os
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+#: kept back from the solvers for verification, risk and writing the outputs
+RESERVE_FRACTION = 0.3
+RESERVE_MAX_S = 2.5
+
+_state: dict[str, float | None] = {"end": None, "limit": None, "start": None}
+#: a thread stuck in one long C call (CasADi differentiating a large NLP; the GIL is
+#: released) does not see the exception; after ``GRACE_S`` the watchdog itself runs the
+#: ``overrun`` writer (the fallback plan's outputs) and ends the process with its exit code
+GRACE_S = 0.4
+_watch: dict = {"timer": None, "thread": None, "armed": False, "fired": False,
+                "caught": False, "overrun": None, "entered": False}
+_lock = threading.Lock()
+
+
+class TimeLimitReached(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
+    """Raised in the planning thread by the watchdog when the limit ran out while armed."""
+
+
+def set_limit(seconds: float | None, start: float | None = None) -> None:
+    """Start a limit of ``seconds`` (None or ∞ clears it), counted from ``start``
+    (``time.monotonic()``, default now)."""
+    if seconds is None or not math.isfinite(seconds):
+        clear()
+        return
+    t0 = time.monotonic() if start is None else start
+    _state.update(start=t0, limit=float(seconds), end=t0 + float(seconds))
+
+
+def clear() -> None:
+    _state.update(end=None, limit=None, start=None)
+
+
+@contextlib.contextmanager
+def limited(seconds: float | None, start: float | None = None,
+            overrun: Callable[[], int] | None = None) -> Iterator[None]:
+    """``set_limit`` for the duration of a block, with the watchdog armed for the calling
+    thread (see the module docstring); ``overrun()`` writes the fallback outputs and returns
+    the exit code when the thread does not answer the watchdog in time."""
+    set_limit(seconds, start)
+    if active():
+        with _lock:
+            _watch.update(thread=threading.get_ident(), armed=True, fired=False,
+                          caught=False, overrun=overrun, entered=False)
+            t = threading.Timer(max(0.0, solve_remaining()), _fire)
+            t.daemon = True
+            _watch["timer"] = t
+        t.start()
+    try:
+        with _lock:  # the watchdog raises only inside the block (see _fire)
+            _watch["entered"] = True
+        yield
+    finally:
+        with _lock:
+            if _watch["timer"] is not None:
+                _watch["timer"].cancel()
+            _watch.update(timer=None, thread=None, armed=False, overrun=None, entered=False)
+        clear()
+
+
+def _fire() -> None:
+    with _lock:
+        if _watch["armed"] and not _watch["entered"]:  # not inside the block yet: soon
+            t = threading.Timer(0.02, _fire)
+            t.daemon = True
+            _watch["timer"] = t
+            t.start()
+            return
+        if _watch["armed"] and _watch["thread"] is not None:
+            _watch["fired"] = True
+            ctypes.pythonapi.PyThreadState_SetAsyncExc(
+                ctypes.c_ulong(_watch["thread"]), ctypes.py_object(TimeLimitReached))
+            t = threading.Timer(GRACE_S, _hard_stop)
+            t.daemon = True
+            _watch["timer"] = t
+            t.start()
+
+
+def _hard_stop() -> None:
+    """The planning thread is still inside one C call: write the fallback from here."""
+    with _lock:
+        if not (_watch["armed"] and not _watch["caught"] and _watch["overrun"] is not None):
+            return
+        _watch["caught"] = True  # the planning thread must not write too
+        overrun = _watch["overrun"]
+    code = 3
+    try:
+        code = overrun()
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+
+
+def caught() -> None:
+    """The planning thread has the ``TimeLimitReached``: it writes the fallback itself —
+    unless the watchdog already does (then it waits for the process to end)."""
+    with _lock:
+        taken = _watch["caught"]
+        _watch["caught"] = True
+    if taken:
+        while True:
+            time.sleep(1.0)
+
+
+def disarm() -> None:
+    """From here on the caller checks the limit itself (an IPOPT callback, a solver's own
+    time budget): the watchdog no longer raises."""
+    with _lock:
+        _watch["armed"] = False
+
+
+def active() -> bool:
+    return _state["end"] is not None
+
+
+def limit() -> float | None:
+    return _state["limit"]
+
+
+def remaining() -> float:
+    """Seconds left for the whole run (∞ without a limit; ≤ 0 once it has passed)."""
+    end = _state["end"]
+    return math.inf if end is None else end - time.monotonic()
+
+
+def _reserve() -> float:
+    lim = _state["limit"] or 0.0
+    return min(RESERVE_MAX_S, RESERVE_FRACTION * lim)
+
+
+def solve_remaining() -> float:
+    """Seconds left for the solvers (the run's time left minus the output reserve)."""
+    return remaining() - _reserve() if active() else math.inf
+
+
+def solve_expired() -> bool:
+    """Has the solvers' share of the limit run out?"""
+    return active() and solve_remaining() <= 0
+
+
+def expired() -> bool:
+    return active() and remaining() <= 0
+
+
+def ipopt_options(minimum: float = 0.05) -> dict[str, float]:
+    """``ipopt.max_wall_time`` for a solve built per call (empty without a limit)."""
+    if not active():
+        return {}
+    return {"ipopt.max_wall_time": max(minimum, solve_remaining())}
+
+
+def progress_note() -> str:
+    """``, 3.2 s left`` for progress lines (empty without a limit)."""
+    if not active():
+        return ""
+    return f", {max(0.0, remaining()):.1f} s left"
+
+
+def mission_limit(options: dict, cli: float | None, share: float) -> float | None:
+    """The time limit of one mission: ``--time-limit`` (``share``: its part of what is
+    left, shared by the missions still to run) or else the mission's ``time_limit``
+    field (``options``); None = no limit."""
+    if cli is not None:
+        return share
+    lim = options.get("time_limit")
+    return None if lim is None else float(lim)

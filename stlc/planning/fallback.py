@@ -1,0 +1,64 @@
+"""The plan written when the run's time limit ran out before any solver produced one.
+
+Every vehicle hovers at its start position for the whole horizon (level attitude, zero
+velocity, hover rotor forces: the vehicle model's own guess from a constant path).  It is
+what "the best plan found so far" is when nothing was found; the exact monitor judges it
+like any plan, and the solver log says no solver finished (``stopped_by: time_limit``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stlc import deadline, vehicles
+from stlc.planning.solution import Solution, Verdict
+from stlc.planning.problem import PlanningProblem
+
+
+def hover_solution(problem: PlanningProblem, reason: str) -> Solution:
+    """Each vehicle of ``problem`` hovering at its start; ``reason`` goes to the notes."""
+    n, dt = problem.grid.n, problem.grid.dt
+    ch: dict[str, np.ndarray] = {}
+    energy = np.zeros(n)
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        P = np.tile(np.asarray(v.start_pos, dtype=float)[:, None], (1, n))
+        X, U = vm.guess(v, P, np.zeros((3, n)), np.zeros((3, n - 1)), dt)
+        for i, name in enumerate(vm.state_channels(v)):
+            ch[name] = np.asarray(X[i], dtype=float).copy()
+        U = np.asarray(U, dtype=float).reshape(len(vm.input_channels(v)), -1)
+        Up = np.hstack([U, U[:, -1:]]) if U.shape[1] == n - 1 else U
+        for i, name in enumerate(vm.input_channels(v)):
+            ch[name] = Up[i].copy()
+        ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
+        energy += vm.energy_profile(v, vehicles.state_matrix(v, ch), dt)
+    sol = Solution(mission=problem.mission.name, status=Verdict.VIOLATED,
+                   robustness_exact=float("nan"), robustness_smooth=float("nan"), specs={},
+                   energy=float(energy.sum()), times=problem.grid.times(), channels=ch,
+                   solver={"name": "none", "iterations": 0, "return_status": "max_time",
+                           "converged": False, "stages": []},
+                   energy_profile=energy, feasible=False)
+    sol.notes.append(f"{reason}: no solver produced a plan in time, so the plan is every "
+                     "vehicle hovering at its start (not a planned trajectory)")
+    return sol
+
+
+def fallback(problem: PlanningProblem) -> Solution:
+    """The plan when the watchdog cut the build (``stlc.deadline``)."""
+    return hover_solution(problem, f"the time limit of {deadline.limit():g} s ran out while "
+                          "the problem was being built")
+
+
+def time_limited(sol: Solution) -> None:
+    """The run's time limit (``stlc.deadline``) stopped the search: the plan is the best
+    verified one found so far, not converged; one that does not satisfy is ``stopped``."""
+    stages = sol.solver.get("stages") or []
+    if not deadline.active() or not (deadline.solve_expired() or
+                                     any(s.get("status") == "max_time" for s in stages)):
+        return
+    limit = deadline.limit()
+    sol.solver.update(stopped_by="time_limit", time_limit_s=limit, converged=False)
+    sol.notes.append(f"stopped by the time limit of {limit:g} s: this is the best verified "
+                     "plan found so far (the solver did not converge)")
+    if sol.status != Verdict.SATISFIED:
+        sol.status = Verdict.STOPPED
