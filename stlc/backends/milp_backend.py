@@ -28,6 +28,7 @@ from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_veh
 from stlc.diagnostics import Diagnostic
 from stlc.planning.solution import Solution, Verdict
 from stlc import deadline
+from stlc.backends.flyable import HOLD_TOL, holds_end
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
@@ -131,6 +132,13 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
             bounds = replace(bounds, x_lo=lo_, x_hi=hi_)
         lvs.append(linear_vehicle(m, v.name, states, inputs, a, b, bounds, x0, grid.dt,
                                   grid.n, discrete))
+    if lins is None and holds_end(problem.mission):  # the NLP's holdable end, as rows
+        for lv, v in zip(lvs, problem.vehicles()):
+            ac, _ = linear_model(v)  # continuous: f(x, 0) = A x
+            for row in np.atleast_2d(np.asarray(ac, float)):
+                coefs = {int(c): float(a) for c, a in zip(lv.x[-1], row) if a != 0.0}
+                if coefs:
+                    m.row(coefs, -HOLD_TOL, HOLD_TOL)
     index = {}
     for lv in lvs:
         for c in lv.states + lv.inputs:
