@@ -3,7 +3,8 @@
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
 ``simulate``'s executed trajectory did not keep its specs (report still written), 130
-interrupted by Ctrl-C (nothing written, earlier outputs left as they were), 141 the reader
+interrupted by Ctrl-C (nothing written, earlier outputs left as they were; SIGTERM 143 and
+SIGHUP 129 alike), 141 the reader
 of stdout went away.  Bad input never shows a Python traceback; an internal error prints
 one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
 
@@ -18,6 +19,7 @@ import contextlib
 import math
 import os
 import sys
+import threading
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
@@ -112,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--fail and --backup go together")
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
+    if threading.current_thread() is threading.main_thread():
+        interrupt.on_termination()  # SIGTERM/SIGHUP: Ctrl-C's contract, exit 143/129
     try:
         # a big-stack worker thread: deep formulas recurse safely, Ctrl-C stops at once
         return interrupt.run(lambda: cmd(args))
@@ -119,12 +123,14 @@ def main(argv: list[str] | None = None) -> int:
         _print_diags(e, None)
         return EXIT_INPUT
     except KeyboardInterrupt:
-        print("stlc: interrupted", file=sys.stderr)
+        code = interrupt.exit_code()
+        print("stlc: interrupted" if code == EXIT_INTERRUPTED else
+              f"stlc: terminated by signal {code - 128}", file=sys.stderr)
         if interrupt.abandoned():  # the solver did not stop in time: leave without finalising
             sys.stdout.flush()
             sys.stderr.flush()
-            os._exit(EXIT_INTERRUPTED)
-        return EXIT_INTERRUPTED
+            os._exit(code)
+        return code
     except BrokenPipeError:  # `stlc monitor ... | head`: the reader left; nothing to say
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

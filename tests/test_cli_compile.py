@@ -25,7 +25,7 @@ from stlc.semantics import nnf
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
-OUTPUTS = {"report.html", "solution.json", "trajectory.csv"}
+OUTPUTS = {"report.html", "solution.json", "trajectory.csv", ".stlc-outputs.json"}
 
 POINT_MASS = """\
 vehicle p : point_mass {
