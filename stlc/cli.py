@@ -23,6 +23,7 @@ import threading
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
+from stlc.limits import source_text
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
 EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
@@ -149,11 +150,8 @@ def _sources(diags) -> dict[str, str]:
     for d in diags:
         f = d.span.file
         if f and f not in out:
-            try:
-                with open(f, encoding="utf-8", errors="replace") as fh:
-                    out[f] = fh.read().removeprefix("\ufeff")
-            except OSError:
-                pass
+            with contextlib.suppress(StlcError):
+                out[f] = source_text(f)
     return out
 
 

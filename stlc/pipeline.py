@@ -8,6 +8,7 @@ the passes.  Outputs are written once, after everything they contain exists.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -18,6 +19,7 @@ import numpy as np
 
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.frontend.syntax import parse_file
+from stlc.limits import source_text
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
 
@@ -48,10 +50,8 @@ def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
-            try:
-                sources[p] = open(p, encoding="utf-8", errors="replace").read()
-            except OSError:
-                pass
+            with contextlib.suppress(StlcError):
+                sources[p] = source_text(p)
     return diags, sources
 
 

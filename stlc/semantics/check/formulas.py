@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 from stlc.diagnostics import Span
 from stlc.frontend import ast
+from stlc.limits import MAX_INSTANCES
 from stlc.semantics import ir
 from stlc.semantics.check import units
 from stlc.semantics.check.context import Context, Scope, misaligned, nearest_hint
@@ -138,15 +139,35 @@ class FormulaElaborator(Context):
                             f"the list holds {kind_name(bad[0])}", n.domain.span, DOMAIN_HINT)
         if len(set(n.names)) != len(n.names):
             return self.err("STL102", "the same name is bound twice", n.span)
-        combos = list(itertools.combinations(dom.items, len(n.names)))
+        if len(dom.items) < len(n.names):
+            if n.kind == "forall":  # vacuously true: `forall d, e in team` for one drone
+                return Form(ir.TrueF(n.span))
+            what = "no element" if not dom.items else f"only {len(dom.items)} element(s)"
+            return self.err("STL212", f"`exists` ranges over {what} ({len(n.names)} "
+                            "distinct one(s) needed): the formula could never hold",
+                            n.domain.span, "declare what it ranges over (e.g. a `station` "
+                            "region for `stations`), or remove the quantifier")
+        count = math.comb(len(dom.items), len(n.names))
+        outer = getattr(self, "_quant_outer", 1)
+        total = getattr(self, "_quant_total", 0) + count  # instances made so far
+        if outer * count > MAX_INSTANCES or total > MAX_INSTANCES:
+            need = max(outer * count, total)
+            return self.err("STL606", f"quantifier expansion needs at least {need:,} "
+                            f"formula instances (limit {MAX_INSTANCES:,}): {count:,} here, "
+                            f"nested inside {outer:,}",
+                            n.span, "quantify over fewer vehicles or regions, bind fewer "
+                            "names, or nest fewer quantifiers")
+        self._quant_total = total
+        self._quant_outer = outer * count
         parts = []
-        for combo in combos:
-            f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
-            if f is None:
-                return ERROR
-            parts.append(f)
-        if not parts:
-            return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
+        try:
+            for combo in itertools.combinations(dom.items, len(n.names)):
+                f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
+                if f is None:
+                    return ERROR
+                parts.append(f)
+        finally:
+            self._quant_outer = outer
         if len(parts) == 1:
             return Form(parts[0])
         return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))
