@@ -49,6 +49,7 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--mission", metavar="NAME", default=None)
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
+    _budget_option(k)
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -63,16 +64,33 @@ def _parser() -> argparse.ArgumentParser:
                    help="DRONE fails at T s (needs --backup)")
     s.add_argument("--backup", metavar="DRONE", default=None,
                    help="the declared drone that takes over after --fail")
+    _budget_option(s)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
     r.add_argument("--trajectory", required=True, metavar="CSV")
     r.add_argument("--mission", metavar="NAME", default=None)
     r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    _budget_option(r)
 
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
     return p
+
+
+def _budget_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-memory", metavar="SIZE", type=_size, default=None,
+                   help="memory budget of a planning problem, e.g. 4G (default: half the "
+                   "machine's memory, at most 16G); larger problems are refused (STL606)")
+
+
+def _size(text: str) -> int:
+    from stlc.limits import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _number(text: str, what: str) -> float:
@@ -113,6 +131,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.cmd == "simulate" and (args.fail is None) != (args.backup is None):
         parser.error("--fail and --backup go together")
+    from stlc import limits
+
+    limits.set_max_memory(getattr(args, "max_memory", None))
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
     if threading.current_thread() is threading.main_thread():

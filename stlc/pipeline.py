@@ -121,6 +121,15 @@ def _team_comparisons(sols: list) -> None:
                            "local search, own station per drone), not optimal")
 
 
+def _check_budget(problem) -> None:
+    """Before building: refuse (STL606) an NLP that cannot fit the memory budget."""
+    from stlc.backends.team_backend import is_team_mission
+    from stlc.planning.budget import check_nlp
+
+    if not is_team_mission(problem):
+        check_nlp(problem, problem.mission.span)
+
+
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
          step: float | None = None, horizon: float | None = None):
     """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
@@ -129,6 +138,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     from stlc.planning.verify import verify
 
     problem = from_mission(program, mission, step=step, horizon=horizon)
+    _check_budget(problem)
     chain = backend_chain(problem, quiet)
     sol, sols = run_chain(problem, chain)
     if len(sols) > 1 and sols[0].routes:
