@@ -29,10 +29,30 @@ EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
 EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
 
 
+class _Once(argparse._StoreAction):
+    """An option that cannot be repeated: given twice it is a usage error (exit 2), never
+    a silently dropped value (`--fail uav1@5 --fail uav2@6`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen = namespace.__dict__.setdefault("_given", set())
+        if option_string is not None and self.dest in seen:
+            parser.error(f"{'/'.join(self.option_strings)} given more than once; it takes "
+                         "one value")
+        seen.add(self.dest)
+        super().__call__(parser, namespace, values, option_string)
+
+
+class _Sub(argparse.ArgumentParser):
+    def __init__(self, *a, **k):
+        super().__init__(*a, **k)
+        self.register("action", None, _Once)
+        self.register("action", "store", _Once)
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="stlc", description="STL mission compiler for multirotor "
                                 "drones: check, monitor, compile (plan), assess risk.")
-    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND", parser_class=_Sub)
 
     c = sub.add_parser("check", help="parse and type-check .stl files")
     c.add_argument("files", nargs="+", metavar="FILE")
