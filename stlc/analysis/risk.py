@@ -196,7 +196,7 @@ def _per_realisation(value, K: int) -> np.ndarray:
 #: realisations evaluated together by ``shared_robustness``: (chunk, samples) temporaries of
 #: ~1 MB stay in cache, and the memory use does not grow with K
 CHUNK = 512
-CHUNK_BYTES = 16 << 20
+CHUNK_BYTES = 64 << 20
 
 
 def shared_robustness(formulas: Mapping[str, Formula], dt: float,
@@ -217,9 +217,12 @@ def shared_robustness(formulas: Mapping[str, Formula], dt: float,
     keys = list(formulas)
     n = len(next(iter(channels.values())))
     plan = Plan([nnf.normalize(formulas[k]) for k in keys], dt, n)
-    # a (chunk, samples) temporary stays within CHUNK_BYTES whatever the trace's length
-    # (512 realisations × 100,000 rows were 400 MB each, 5.2 GB in all)
-    chunk = max(1, min(chunk, CHUNK_BYTES // (8 * max(n, 1))))
+    # the (chunk, samples) values of every timed node of one chunk stay within CHUNK_BYTES
+    # whatever the trace's length (512 realisations × 100,000 rows were 400 MB per node,
+    # 5.3 GB in all)
+    span = sum((e - s + 1) for need, timed in zip(plan.need, plan.timed)
+               if timed and need is not None for s, e in (need,))
+    chunk = max(1, min(chunk, CHUNK_BYTES // (8 * max(span, 1))))
     exact = {k: np.empty(K) for k in keys}
     smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
     for lo in range(0, K, chunk):
