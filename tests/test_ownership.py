@@ -16,7 +16,6 @@ from pathlib import Path
 
 import pytest
 
-from stlc.cli import main
 from stlc.output import directory
 
 ROOT = Path(__file__).resolve().parent.parent
