@@ -45,6 +45,7 @@ BAD = [
     ("capacity=1e19", src(extra="  capacity = 1e19\n"), "1e19"),
     ("capacity>1000", src(extra="  capacity = 1001\n"), "1001"),
     ("K=1e9", src("  risk { K = 1e9 }", head=RISKY), "1e9"),
+    ("K=1e6", src("  risk { K = 1e6 }", head=RISKY), "1e6"),
     ("seed=2^64", src("  risk { seed = 18446744073709551616 }", head=RISKY),
      "18446744073709551616"),
     ("max_iter=0", src("  max_iter = 0"), "0"),
@@ -54,7 +55,7 @@ BAD = [
 GOOD = [
     ("threshold=0.2", src("  threshold = 0.2")),
     ("capacity=1000", src(extra="  capacity = 1000\n")),
-    ("K=1e6", src("  risk { K = 1e6 }", head=RISKY)),
+    ("K=1e5", src("  risk { K = 1e5 }", head=RISKY)),
     ("event_period=step", src("  replan { event_period = 0.5 s }")),
     ("waypoint_period=1e300", src("  replan { waypoint_period = 1e300 s }")),
 ]

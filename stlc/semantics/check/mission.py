@@ -26,7 +26,7 @@ MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
 MAX_COUNT = 10**9  # sample counts, iteration limits
 MAX_SEED = 2**63 - 1
-MAX_K = 10**6  # risk realisations: K × samples floats are held at once
+MAX_K = 10**5  # risk realisations: K × samples values, ~1 s per 10,000 on a small mission
 OBJECTIVE_TERMS = ("robustness", "energy", "forward_cost")
 
 
