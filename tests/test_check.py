@@ -533,7 +533,8 @@ def test_risk_defaults_use_the_scenario_uncertainty():
 
 def test_replan_block():
     m = mission("  spec alt = always uav1.pos.z > 0\n  require alt\n"
-                "  replan { threshold = 50 cm; event_period = 200 ms; keep = [alt] }")
+                "  replan { threshold = 50 cm; event_period = 200 ms; keep = [alt] }",
+                step="0.1 s")
     assert m.replan == model.ReplanConfig(0.5, 0.2, 1.0, 0.4, ("alt",))
 
 

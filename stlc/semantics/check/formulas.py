@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from stlc.diagnostics import Span
 from stlc.frontend import ast
-from stlc.limits import MAX_INSTANCES
+from stlc.limits import MAX_EXPANSION
 from stlc.semantics import ir
 from stlc.semantics.check import units
 from stlc.semantics.check.context import Context, Scope, misaligned, nearest_hint
@@ -45,6 +45,16 @@ from stlc.semantics.check.values import (
 DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
                "`regions` or a list like [uav1, uav2]")
 
+
+
+
+def _size(node: ast.Node) -> int:
+    """The number of AST nodes of ``node`` (iterative)."""
+    count, stack = 0, [node]
+    while stack:
+        count += 1
+        stack.extend(ast.node_children(stack.pop()))
+    return count
 
 class FormulaElaborator(Context):
     """The formula half of the elaborator (``value`` is ``ExpressionElaborator``'s)."""
@@ -148,13 +158,15 @@ class FormulaElaborator(Context):
                             n.domain.span, "declare what it ranges over (e.g. a `station` "
                             "region for `stations`), or remove the quantifier")
         count = math.comb(len(dom.items), len(n.names))
+        size = _size(n.body)  # the work of one instance: the body's source nodes
         outer = getattr(self, "_quant_outer", 1)
-        total = getattr(self, "_quant_total", 0) + count  # instances made so far
-        if outer * count > MAX_INSTANCES or total > MAX_INSTANCES:
-            need = max(outer * count, total)
-            return self.err("STL606", f"quantifier expansion needs at least {need:,} "
-                            f"formula instances (limit {MAX_INSTANCES:,}): {count:,} here, "
-                            f"nested inside {outer:,}",
+        total = getattr(self, "_quant_total", 0) + count * size  # nodes elaborated so far
+        if outer * count * size > MAX_EXPANSION or total > MAX_EXPANSION:
+            need = max(outer * count * size, total)
+            return self.err("STL606", f"quantifier expansion needs at least {need:,} source "
+                            f"nodes (limit {MAX_EXPANSION:,}): {outer * count:,} instances "
+                            f"of a {size}-node body ({count:,} here, nested inside "
+                            f"{outer:,})",
                             n.span, "quantify over fewer vehicles or regions, bind fewer "
                             "names, or nest fewer quantifiers")
         self._quant_total = total
