@@ -282,7 +282,7 @@ BAD_INPUTS = {
     # assignment exists, a located STL503 before any trajectory is planned
     "no_assignment": ("team.stl", TEAM_SMALL.replace("capacity = 2", "capacity = 1")
                       .replace("  station s1", "  # s1").replace("  station s2", "  # s2"),
-                      None, "STL503"),
+                      None, "STL212"),  # `exists s in stations` with none: at check time
     "missing_file": ("missing.stl", None, None, "STL601"),
 }
 
