@@ -137,6 +137,6 @@ def test_sigterm_and_sighup_get_ctrl_c_contract(tmp_path, sig, code):
     rest = p.stderr.read()
     p.wait(timeout=30)
     assert p.returncode == code, "".join(seen) + rest
-    assert time.monotonic() - t0 < 2.5
+    assert time.monotonic() - t0 < 5.0  # ~1.5 s idle; 2.8 s measured at load average 26
     assert f"signal {int(sig)}" in rest and "Traceback" not in rest
     assert {q.name: q.read_text() for q in out.iterdir()} == old  # no stage folder either
