@@ -4,7 +4,8 @@ explain`` (the language tools live in ``stlc.tools``).
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
 ``simulate``'s executed trajectory did not keep its specs (report still written), 130
-interrupted by Ctrl-C (nothing written, earlier outputs left as they were), 141 the reader
+interrupted by Ctrl-C (nothing written, earlier outputs left as they were; SIGTERM 143 and
+SIGHUP 129 alike), 141 the reader
 of stdout went away.  Bad input never shows a Python traceback; an internal error prints
 one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
 
@@ -19,20 +20,42 @@ import contextlib
 import math
 import os
 import sys
+import threading
 import time
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
 from stlc.exitcodes import (EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
                             EXIT_OK, EXIT_UNSAT)
+from stlc.limits import source_text
 
 _STARTED = time.monotonic()  # `--time-limit` counts from here (the imports before are ~0.3 s)
+
+
+class _Once(argparse._StoreAction):
+    """An option that cannot be repeated: given twice it is a usage error (exit 2), never
+    a silently dropped value (`--fail uav1@5 --fail uav2@6`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen = namespace.__dict__.setdefault("_given", set())
+        if option_string is not None and self.dest in seen:
+            parser.error(f"{'/'.join(self.option_strings)} given more than once; it takes "
+                         "one value")
+        seen.add(self.dest)
+        super().__call__(parser, namespace, values, option_string)
+
+
+class _Sub(argparse.ArgumentParser):
+    def __init__(self, *a, **k):
+        super().__init__(*a, **k)
+        self.register("action", None, _Once)
+        self.register("action", "store", _Once)
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="stlc", description="STL mission compiler for multirotor "
                                 "drones: check, monitor, compile (plan), assess risk.")
-    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND", parser_class=_Sub)
 
     c = sub.add_parser("check", help="parse and type-check .stl files")
     c.add_argument("files", nargs="+", metavar="FILE")
@@ -54,6 +77,7 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--mission", metavar="NAME", default=None)
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
+    _budget_option(k)
     k.add_argument("--backend", metavar="NAME", default=None,
                    help="force a backend chain: milp | nlp | team (or a backend's name); "
                    "default: chosen by capabilities")
@@ -77,12 +101,14 @@ def _parser() -> argparse.ArgumentParser:
                    help="the declared drone that takes over after --fail")
     s.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="stop planning the nominal plan after SECONDS (best verified plan)")
+    _budget_option(s)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
     r.add_argument("--trajectory", required=True, metavar="CSV")
     r.add_argument("--mission", metavar="NAME", default=None)
     r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    _budget_option(r)
 
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
@@ -95,6 +121,21 @@ def _parser() -> argparse.ArgumentParser:
     e = sub.add_parser("explain", help="the long explanation of an error code")
     e.add_argument("code", metavar="STLxxx")
     return p
+
+
+def _budget_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-memory", metavar="SIZE", type=_size, default=None,
+                   help="memory budget of a planning problem, e.g. 4G (default: half the "
+                   "machine's memory, at most 16G); larger problems are refused (STL606)")
+
+
+def _size(text: str) -> int:
+    from stlc.limits import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _number(text: str, what: str) -> float:
@@ -146,9 +187,14 @@ def main(argv: list[str] | None = None) -> int:
         from stlc.tools.lsp import serve
 
         return serve()
+    from stlc import limits
+
+    limits.set_max_memory(getattr(args, "max_memory", None))
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
            "fmt": cmd_fmt, "explain": cmd_explain}[args.cmd]
+    if threading.current_thread() is threading.main_thread():
+        interrupt.on_termination()  # SIGTERM/SIGHUP: Ctrl-C's contract, exit 143/129
     try:
         # a big-stack worker thread: deep formulas recurse safely, Ctrl-C stops at once
         return interrupt.run(lambda: cmd(args))
@@ -156,12 +202,14 @@ def main(argv: list[str] | None = None) -> int:
         _print_diags(e, None)
         return EXIT_INPUT
     except KeyboardInterrupt:
-        print("stlc: interrupted", file=sys.stderr)
+        code = interrupt.exit_code()
+        print("stlc: interrupted" if code == EXIT_INTERRUPTED else
+              f"stlc: terminated by signal {code - 128}", file=sys.stderr)
         if interrupt.abandoned():  # the solver did not stop in time: leave without finalising
             sys.stdout.flush()
             sys.stderr.flush()
-            os._exit(EXIT_INTERRUPTED)
-        return EXIT_INTERRUPTED
+            os._exit(code)
+        return code
     except BrokenPipeError:  # `stlc monitor ... | head`: the reader left; nothing to say
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -180,11 +228,8 @@ def _sources(diags) -> dict[str, str]:
     for d in diags:
         f = d.span.file
         if f and f not in out:
-            try:
-                with open(f, encoding="utf-8", errors="replace") as fh:
-                    out[f] = fh.read().removeprefix("\ufeff")
-            except OSError:
-                pass
+            with contextlib.suppress(StlcError):
+                out[f] = source_text(f)
     return out
 
 

@@ -69,6 +69,7 @@ CODES: dict[str, str] = {
     "STL209": "invalid covariance matrix",
     "STL210": "expected a constant value",
     "STL211": "empty region",
+    "STL212": "quantifier over an empty set",
     # time
     "STL301": "negative time bound",
     "STL302": "interval bounds out of order",
@@ -91,6 +92,7 @@ CODES: dict[str, str] = {
     "STL604": "trace time column is not uniform",
     # output files
     "STL605": "cannot write the output directory",
+    "STL606": "problem too large for the resource budget (memory, instances, samples)",
     # warnings (`stlc.semantics.lint`, `stlc.analysis.vacuity`): exit 0 unless --deny-warnings
     "STLW01": "a binary operator's right operand is outside the temporal operator before it",
     "STLW02": "an implication holds only vacuously on the plan",

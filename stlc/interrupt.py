@@ -11,12 +11,16 @@ after every ``nlpsol`` call, which re-raises.  ``deferred()`` marks a short sect
 final renames of the outputs) that an interrupt must not cut in half; the main thread waits
 for it to end.  Then ``run`` raises ``KeyboardInterrupt`` in the main thread (the CLI exits
 130); a second Ctrl-C, or a worker that does not stop within ``GRACE_S``, ends the wait.
+``on_termination()`` gives SIGTERM (``timeout``, ``kill``, a cancelled CI job) and SIGHUP
+(a closed terminal) the same contract: they interrupt like Ctrl-C, and ``exit_code()``
+is then 128 + the signal's number (143, 129) instead of 130.
 """
 
 from __future__ import annotations
 
 import contextlib
 import ctypes
+import signal
 import sys
 import threading
 from collections.abc import Callable, Iterator
@@ -31,7 +35,25 @@ POLL_S = 0.05
 
 _requested = threading.Event()
 _lock = threading.Lock()
-_state = {"worker": None, "deferring": 0, "pending": False, "abandoned": False}
+_state = {"worker": None, "deferring": 0, "pending": False, "abandoned": False, "signal": 0}
+
+
+def _terminate(signum: int, frame: object) -> None:
+    _state["signal"] = signum
+    raise KeyboardInterrupt
+
+
+def on_termination() -> None:
+    """SIGTERM and SIGHUP interrupt like Ctrl-C (call in the main thread, before ``run``)."""
+    _state["signal"] = 0
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), _terminate)
+
+
+def exit_code() -> int:
+    """The exit status of an interrupted command: 130 for Ctrl-C, 128 + N for signal N."""
+    return 128 + int(_state["signal"] or signal.SIGINT)
 
 
 def abandoned() -> bool:

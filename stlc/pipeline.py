@@ -8,6 +8,7 @@ the passes.  Outputs are written once, after everything they contain exists.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -20,6 +21,7 @@ from stlc import deadline
 from stlc.diagnostics import Diagnostic, Span, StlcError, emit_warnings
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
+from stlc.limits import source_text
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
 
@@ -54,10 +56,8 @@ def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
-            try:
-                sources[p] = open(p, encoding="utf-8", errors="replace").read()
-            except OSError:
-                pass
+            with contextlib.suppress(StlcError):
+                sources[p] = source_text(p)
     return diags, sources
 
 
@@ -116,6 +116,16 @@ def _team_comparisons(sols: list) -> None:
                            "local search, own station per drone), not optimal")
 
 
+def _check_budget(problem, backends) -> None:
+    """Before building: refuse (STL606) a trajectory NLP that cannot fit the memory
+    budget (a chain with the CasADi NLP; the team chain plans on waypoints)."""
+    from stlc.backends.casadi_backend import CasadiNlp
+    from stlc.planning.budget import check_nlp
+
+    if any(isinstance(b, CasadiNlp) for b in backends):
+        check_nlp(problem, problem.mission.span)
+
+
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
          step: float | None = None, horizon: float | None = None,
          backend: str | None = None):
@@ -129,6 +139,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
 
     problem = from_mission(program, mission, step=step, horizon=horizon)
     chain = select(problem, backend, quiet)
+    _check_budget(problem, chain.backends)
     if not quiet:
         print(f"{mission.name}: chain `{chain.name}`"
               f"{' (forced)' if chain.forced else ''}: "
@@ -429,8 +440,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     """``stlc simulate``: compile the mission, fly it through its events (disturbances with
     event-triggered replanning, or a drone failure with a backup's takeover), verify the
     executed trajectory and write the compile outputs plus ``replan.json`` and
-    ``executed.csv``.  Exit 0 when every triggered replan was accepted and the executed
-    trajectory satisfies the kept specs, 3 otherwise."""
+    ``executed.csv``.  Exit 0 when the nominal plan satisfies its mission, every
+    triggered replan was accepted and the executed trajectory satisfies the kept specs, 3
+    otherwise (an STL501 line says when the nominal plan is violated)."""
+    from stlc.output import compile as outputs
     from stlc.output.directory import preflight
     from stlc.output.simulate import simulation_summary, write_simulation
 
@@ -479,7 +492,9 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     sol.timing["simulate_s"] = time.perf_counter() - t1
     sol.timing["total_s"] = time.perf_counter() - t0
     write_simulation(outdir, program, m, sol, sim)
-    ok = simulation_summary(sim, outdir, quiet)
+    if sol.status != "satisfied":  # the nominal plan's verdict counts, as in `compile`
+        outputs.summary(sol, outdir)
+    ok = simulation_summary(sim, outdir, quiet) and sol.status == "satisfied"
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return EXIT_OK if ok else EXIT_UNSAT

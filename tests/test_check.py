@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from stlc.diagnostics import StlcError
 from stlc.frontend.syntax import parse, parse_file
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
@@ -352,9 +353,18 @@ def test_exists_over_targets_is_a_disjunction():
     assert lows == [[], [2.0], [4.0]]
 
 
-def test_exists_over_an_empty_group_is_false():
-    f = mission("  require not exists q in stations: uav1.pos in q").requirement
-    assert f == ir.Not(ir.FalseF())
+def test_exists_over_an_empty_group_is_a_located_error():
+    """Issue 23: `exists s in stations` without a station could never hold (it was a silent
+    `false`, and a team mission reported "violated by inf"); `forall` over too few
+    elements stays vacuously true (`forall d, e in team` for a one-drone team)."""
+    with pytest.raises(StlcError) as e:
+        mission("  require not exists q in stations: uav1.pos in q")
+    (d,) = e.value.diagnostics
+    assert d.code == "STL212" and "no element" in d.message
+    assert (d.span.line, d.span.col) == (19, 27)  # at `stations`
+    one = mission("  vehicles = [uav1]\n  require forall a, b in team: dist(a.pos, b.pos) >= 1 m"
+                  "\n  minimize -robustness")
+    assert one.requirement == ir.TrueF()
 
 
 def test_scalar_range_is_two_predicates():
@@ -527,7 +537,8 @@ def test_risk_defaults_use_the_scenario_uncertainty():
 
 def test_replan_block():
     m = mission("  spec alt = always uav1.pos.z > 0\n  require alt\n"
-                "  replan { threshold = 50 cm; event_period = 200 ms; keep = [alt] }")
+                "  replan { threshold = 50 cm; event_period = 200 ms; keep = [alt] }",
+                step="0.1 s")
     assert m.replan == model.ReplanConfig(0.5, 0.2, 1.0, 0.4, ("alt",))
 
 

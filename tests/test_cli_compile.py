@@ -25,7 +25,7 @@ from stlc.semantics import nnf
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
-OUTPUTS = {"report.html", "solution.json", "trajectory.csv"}
+OUTPUTS = {"report.html", "solution.json", "trajectory.csv", ".stlc-outputs.json"}
 
 POINT_MASS = """\
 vehicle p : point_mass {
@@ -284,7 +284,7 @@ BAD_INPUTS = {
     # assignment exists, a located STL503 before any trajectory is planned
     "no_assignment": ("team.stl", TEAM_SMALL.replace("capacity = 2", "capacity = 1")
                       .replace("  station s1", "  # s1").replace("  station s2", "  # s2"),
-                      None, "STL503"),
+                      None, "STL212"),  # `exists s in stations` with none: at check time
     "missing_file": ("missing.stl", None, None, "STL601"),
 }
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import random
 
+import pytest
+
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -85,3 +87,22 @@ def test_runner_fast_profile():
     table = report.table()
     assert table.splitlines()[0].split("|")[1].strip() == "kind"
     assert "all" in table
+
+
+# ---------------------------------------------------------------- whole commands (issue 23)
+
+
+@pytest.mark.parametrize("kind, seed", [("simulate", 1), ("simulate", 3), ("team", 3),
+                                        ("team", 5), ("resource", 0), ("resource", 4)])
+def test_command_inputs_are_diagnosed_or_accepted_without_data_loss(kind, seed):
+    """A few fast whole-command inputs (the long profile runs hundreds: README): every
+    outcome is diagnosed or accepted, and the user files in the output directory survive."""
+    outcome(fuzz.make_input(kind, seed, SEEDS))
+
+
+def test_the_runner_reports_mem_and_hang_as_failures():
+    assert {"mem", "hang", "dataloss"} <= set(fuzz.BAD) <= set(fuzz.CLASSES)
+    r = run(3, seed=0, jobs=1, timeout=60, kinds=("resource",))
+    assert r.bad() == 0, r.failures
+    assert set(r.counts) == {"resource"} and r.total == 3
+    assert "mem" in r.table() and "dataloss" in r.table()

@@ -5,7 +5,8 @@ stays inside one unit (a folder, or a top-level module).
 The units, lowest first (``LAYERS``)::
 
     ground     stlc (the package), diagnostics, interrupt, strictjson, exitcodes, schemas
-               (JSON data)
+               (JSON data), deadline
+    limits     resource limits: size-limited reads, memory budget, instance limits
     frontend   source text → AST
     vehicles   declared data, dynamics, geometry and behaviour of each vehicle model
     semantics  checker → checked Program, IR, NNF, time grid, named specs
@@ -34,6 +35,7 @@ from test_import_graph import graph
 
 LAYERS: list[set[str]] = [
     {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas", "deadline"},
+    {"limits"},
     {"frontend"},
     {"vehicles"},
     {"semantics"},

@@ -23,7 +23,7 @@ from stlc.diagnostics import Span, StlcError
 from stlc.output import directory
 
 ROOT = Path(__file__).resolve().parent.parent
-OWN = {"report.html", "solution.json", "trajectory.csv"}
+OWN = {"report.html", "solution.json", "trajectory.csv", directory.MANIFEST}
 VEHICLE = """\
 vehicle p : point_mass {
   vel_max = (1, 1, 1) m/s
@@ -90,10 +90,11 @@ def test_stale_risk_outputs_of_an_earlier_run_are_removed_but_nothing_else(tmp_p
     stage.mkdir()
     for name in ("risk.json", "solution.json", "keep.json"):
         (out / name).write_text("old")
+    (out / directory.MANIFEST).write_text('{"files": ["risk.json", "solution.json"]}')
     (stage / "solution.json").write_text("new")
     assert directory.publish(str(stage), str(out)) == ["solution.json"]
-    assert {p.name: p.read_text() for p in out.iterdir()} == {"solution.json": "new",
-                                                             "keep.json": "old"}
+    assert {p.name: p.read_text() for p in out.iterdir()
+            if p.name != directory.MANIFEST} == {"solution.json": "new", "keep.json": "old"}
 
 
 @pytest.mark.parametrize("case", ["empty", "file", "inside_file", "owned_is_dir", "proc"])
@@ -151,7 +152,7 @@ def test_concurrent_compiles_to_one_directory_end_with_one_complete_set(two, tmp
 def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    old = {name: f"previous {name}" for name in OWN}
+    old = {name: f"previous {name}" for name in OWN - {directory.MANIFEST}}
     for name, text in old.items():
         (out / name).write_text(text)
     # hexa_climb stretched to 8 s at 0.05 s: a solve that lasts many seconds after its

@@ -70,7 +70,7 @@ from stlc.semantics.model import Normal, RiskCase, RiskConfig
 __all__ = [
     "CaseResult", "RiskError", "SamplingError", "clopper_pearson_upper", "cvar_bounds",
     "dkw_margin", "evaluate_case", "evaluate_risk", "human_frame_point", "run_cases",
-    "p_violation", "robustness_histogram", "sample_params", "save_samples",
+    "histogram_range", "p_violation", "robustness_histogram", "sample_params", "save_samples",
     "scenario_distributions", "shared_robustness", "var_bounds",
 ]
 
@@ -125,6 +125,17 @@ class CaseResult:
 HIST_BINS = 40
 
 
+def histogram_range(lo: float, hi: float, bins: int) -> tuple[float, float]:
+    """``(lo, hi)`` widened so that each of ``bins`` bins is wider than the floating-point
+    spacing at the values: a degenerate range by ±0.5e-3, and equal huge values (a drone
+    1e15 m away, where ±0.5e-3 vanishes and numpy refuses "too many bins") by enough."""
+    least = max(1e-12, 4 * bins * float(np.spacing(max(abs(lo), abs(hi)))))
+    if hi - lo < least:
+        mid, half = (lo + hi) / 2, max(0.5e-3, least)
+        lo, hi = mid - half, mid + half
+    return lo, hi
+
+
 def robustness_histogram(rho, bins: int = HIST_BINS) -> dict:
     """``{"edges": [bins + 1], "counts": [bins], "neg_inf": n, "pos_inf": n}``: a histogram
     of the finite values of ``rho`` over their range (a degenerate range is widened by
@@ -134,9 +145,7 @@ def robustness_histogram(rho, bins: int = HIST_BINS) -> dict:
     out = {"edges": [], "counts": [], "neg_inf": int(np.count_nonzero(np.isneginf(r))),
            "pos_inf": int(np.count_nonzero(np.isposinf(r)))}
     if fin.size:
-        lo, hi = float(fin.min()), float(fin.max())
-        if hi - lo < 1e-12:
-            lo, hi = lo - 0.5e-3, hi + 0.5e-3
+        lo, hi = histogram_range(float(fin.min()), float(fin.max()), bins)
         counts, edges = np.histogram(fin, bins=bins, range=(lo, hi))
         out["edges"] = [float(e) for e in edges]
         out["counts"] = [int(c) for c in counts]
@@ -187,6 +196,7 @@ def _per_realisation(value, K: int) -> np.ndarray:
 #: realisations evaluated together by ``shared_robustness``: (chunk, samples) temporaries of
 #: ~1 MB stay in cache, and the memory use does not grow with K
 CHUNK = 512
+CHUNK_BYTES = 64 << 20
 
 
 def shared_robustness(formulas: Mapping[str, Formula], dt: float,
@@ -207,6 +217,12 @@ def shared_robustness(formulas: Mapping[str, Formula], dt: float,
     keys = list(formulas)
     n = len(next(iter(channels.values())))
     plan = Plan([nnf.normalize(formulas[k]) for k in keys], dt, n)
+    # the (chunk, samples) values of every timed node of one chunk stay within CHUNK_BYTES
+    # whatever the trace's length (512 realisations × 100,000 rows were 400 MB per node,
+    # 5.3 GB in all)
+    span = sum((e - s + 1) for need, timed in zip(plan.need, plan.timed)
+               if timed and need is not None for s, e in (need,))
+    chunk = max(1, min(chunk, CHUNK_BYTES // (8 * max(span, 1))))
     exact = {k: np.empty(K) for k in keys}
     smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
     for lo in range(0, K, chunk):

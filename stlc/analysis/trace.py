@@ -73,18 +73,10 @@ def _fail(code: str, message: str, span: Span, help: str | None = None) -> StlcE
 
 
 def _decode(path: str) -> str:
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-    except FileNotFoundError:
-        raise _fail("STL601", f"cannot read trace `{path}`: no such file", Span(path, 0, 0, 0, 0),
-                    "check the path given to --trace") from None
-    except IsADirectoryError:
-        raise _fail("STL601", f"cannot read trace `{path}`: it is a directory",
-                    Span(path, 0, 0, 0, 0), "give the path of a .csv file") from None
-    except (OSError, ValueError) as exc:
-        raise _fail("STL601", f"cannot read trace `{path}`: {exc}", Span(path, 0, 0, 0, 0),
-                    "check that the file exists and is readable") from None
+    from stlc.limits import MAX_TRACE_BYTES, read_limited
+
+    data = read_limited(str(path), MAX_TRACE_BYTES, "trace",
+                        "give the path of a CSV trace (e.g. a `trajectory.csv`)")
 
     def at(offset: int) -> Span:  # lines end at \n, \r\n or \r (diagnostics.source_lines)
         head = data[:offset].replace(b"\r\n", b"\n").replace(b"\r", b"\n")

@@ -415,10 +415,8 @@ def parse(text: str, file: str = "<input>") -> ast.File:
 
 
 def parse_file(path: str) -> ast.File:
-    try:
-        data = FsPath(path).read_bytes()
-    except OSError as e:
-        raise StlcError([Diagnostic("STL601", f"cannot read `{path}`: {e.strerror or e}",
-                                    Span(path, 1, 1, 1, 1),
-                                    "check the path; it must be a readable .stl file")]) from None
+    from stlc.limits import MAX_SOURCE_BYTES, read_limited
+
+    data = read_limited(path, MAX_SOURCE_BYTES, "file",
+                        "check the path; it must be a readable .stl file")
     return parse(decode(data, path), path)

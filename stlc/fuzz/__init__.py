@@ -16,12 +16,16 @@ Inputs come in five kinds, each made from a seed (so every failure can be replay
 * ``trace``    — ``stlc monitor`` on a generated file with a damaged trace (tiny, huge,
   non-uniform or non-finite times and values, missing columns, odd line ends);
 * ``example``  — ``stlc monitor`` of ``specs/monitor_example.stl`` on a damaged copy of its
-  trace.
+  trace;
+* ``simulate``, ``team``, ``resource`` — whole commands (``stlc.fuzz.missions``): simulate
+  with events from the file and the command line and ``replan`` blocks, team missions
+  (capacities, stations, horizons, targets), and what must be refused before allocation;
+  each writes into a directory of user files, which must survive (else ``dataloss``).
 
 Each input runs in a worker process with a time limit and is classified as *diagnosed*
 (exit 1, every diagnostic located at a line of the file), *accepted* (exit 0; for a
 monitor, ``--json`` output must parse as strict JSON), *internal* (any other exception),
-*hang* (over the time limit), *unlocated* (a diagnostic at line 0 or past the end of the
+*hang* (over the time limit), *mem* (over the memory cap), *dataloss*, *unlocated* (a diagnostic at line 0 or past the end of the
 file) or *badjson*.  The report is a table of kind × class; failing inputs are saved.
 """
 
@@ -32,9 +36,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 SEED_DIRS = ("specs", "tests/missions", "tests/diagnostics")
-KINDS = ("grammar", "mutation", "deep", "trace", "example")
-CLASSES = ("diagnosed", "accepted", "internal", "hang", "unlocated", "badjson")
-BAD = ("internal", "hang", "unlocated", "badjson")
+KINDS = ("grammar", "mutation", "deep", "trace", "example", "simulate", "team", "resource")
+CLASSES = ("diagnosed", "accepted", "internal", "hang", "mem", "dataloss", "unlocated",
+           "badjson")
+BAD = ("internal", "hang", "mem", "dataloss", "unlocated", "badjson")
 
 SIGNALS = ("x", "y", "z")
 ODD = ["\r", "\r\n", "\f", "\v", "\u2028", "\x85", "\x00", "\t", "\ufeff", "\u00b5", "é",
@@ -220,6 +225,10 @@ def seed_files() -> list[str]:
 
 def make_input(kind: str, seed: int, seeds: list[str]) -> dict:
     """The input of one case: {'kind', 'seed', 'stl': str|bytes, 'trace': str|None}."""
+    if kind in ("simulate", "team", "resource"):
+        from stlc.fuzz import missions
+
+        return missions.make(kind, seed)
     rng = random.Random(f"{kind}:{seed}")
     trace = None
     if kind == "grammar":

@@ -1,5 +1,6 @@
 """``python -m stlc.fuzz``: the long fuzz profile (see ``stlc.fuzz``); exit 1 on any
-internal error, hang, unlocated diagnostic or invalid JSON."""
+internal error, hang, memory over the cap, lost user file, unlocated diagnostic or
+invalid JSON."""
 
 from __future__ import annotations
 
@@ -16,12 +17,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--jobs", type=int, default=1, help="worker processes")
     p.add_argument("--timeout", type=float, default=10.0, help="seconds per input")
     p.add_argument("--save", metavar="DIR", default=None, help="write failing inputs here")
+    p.add_argument("--kinds", default=None, help="comma-separated input kinds, evenly "
+                   "(default: all, weighted)")
     a = p.parse_args(argv)
+    kinds = tuple(a.kinds.split(",")) if a.kinds else None
 
     def progress(done, report):
         print(f"  {done} inputs, {report.bad()} failures", file=sys.stderr, flush=True)
 
-    report = run(a.n, a.seed, a.jobs, a.timeout, a.save, progress)
+    report = run(a.n, a.seed, a.jobs, a.timeout, a.save, progress, kinds)
     print(report.table())
     cpu, kind, seed = report.slowest
     print(f"\n{report.total} inputs in {report.seconds:.0f} s wall; slowest input "

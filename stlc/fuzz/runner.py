@@ -20,7 +20,40 @@ from multiprocessing.connection import wait
 
 from stlc import fuzz
 
-WEIGHTS = {"grammar": 0.35, "mutation": 0.30, "deep": 0.05, "trace": 0.20, "example": 0.10}
+WEIGHTS = {"grammar": 0.34, "mutation": 0.29, "deep": 0.05, "trace": 0.20, "example": 0.09,
+           "simulate": 0.01, "team": 0.01, "resource": 0.01}
+#: whole commands solve: their time limit is at least this (s)
+MIN_TIMEOUT = {"simulate": 60.0, "team": 120.0, "resource": 30.0}
+#: peak resident memory of one input above this is ``mem`` (the address space is capped
+#: a few GB above it, so that a runaway allocation fails instead of swapping)
+MEM_CAP = 1 << 30
+
+
+def _cap_memory() -> None:  # pragma: no cover - runs in a worker process
+    import resource
+
+    with contextlib.suppress(ValueError, OSError):
+        hard = MEM_CAP + (4 << 30)
+        resource.setrlimit(resource.RLIMIT_AS, (hard, hard))
+
+
+def _reset_peak() -> bool:
+    """Reset the kernel's high-water mark of this process's resident size (Linux)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def _peak() -> int:
+    with contextlib.suppress(OSError, ValueError):
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    return 0
 
 
 def _no_constant(name: str):
@@ -46,6 +79,10 @@ def classify(case: dict) -> tuple[str, str]:
     from stlc.diagnostics import StlcError, render_all
     from stlc.pipeline import load, monitor_trace
 
+    if "command" in case:
+        from stlc.fuzz.missions import run_command
+
+        return run_command(case)
     with tempfile.TemporaryDirectory(prefix="stlc-fuzz-") as d:
         path, csv = os.path.join(d, "in.stl"), os.path.join(d, "in.csv")
         stl = case["stl"]
@@ -90,6 +127,7 @@ def classify(case: dict) -> tuple[str, str]:
 def _worker(conn, seeds: list[str]) -> None:  # pragma: no cover - runs in a subprocess
     from stlc import interrupt
 
+    _cap_memory()
     while True:
         msg = conn.recv()
         if msg is None:
@@ -97,10 +135,16 @@ def _worker(conn, seeds: list[str]) -> None:  # pragma: no cover - runs in a sub
         kind, seed = msg
         t0 = time.process_time()
         case = fuzz.make_input(kind, seed, seeds)
+        measured = _reset_peak()
         try:
             cls, detail = interrupt.run(lambda c=case: classify(c))
+        except MemoryError:
+            cls, detail = "mem", "MemoryError"
         except BaseException as e:  # noqa: BLE001
             cls, detail = "internal", f"{type(e).__name__}: {e}"
+        peak = _peak() if measured else 0
+        if peak > MEM_CAP and cls not in fuzz.BAD:
+            cls, detail = "mem", f"peak resident size {peak / 2**20:.0f} MB"
         conn.send((cls, detail, time.process_time() - t0))
 
 
@@ -139,11 +183,16 @@ class Report:
         return "\n".join([line(cols), sep, *map(line, rows)])
 
 
-def plan(n: int, seed: int = 0) -> list[tuple[str, int]]:
-    """``n`` (kind, seed) pairs, split over the kinds by ``WEIGHTS``, interleaved."""
+def plan(n: int, seed: int = 0, kinds: tuple[str, ...] | None = None
+         ) -> list[tuple[str, int]]:
+    """``n`` (kind, seed) pairs, split over the kinds by ``WEIGHTS``, interleaved (only
+    ``kinds``, evenly, when given)."""
     out = []
-    counts = {k: max(1, round(n * w)) for k, w in WEIGHTS.items()}
-    counts["grammar"] += n - sum(counts.values())
+    if kinds:
+        counts = {k: n // len(kinds) + (i < n % len(kinds)) for i, k in enumerate(kinds)}
+    else:
+        counts = {k: max(1, round(n * w)) for k, w in WEIGHTS.items()}
+        counts["grammar"] += n - sum(counts.values())
     for k, c in counts.items():
         out += [(k, seed + i) for i in range(c)]
     out.sort(key=lambda ks: (ks[1], ks[0]))
@@ -151,11 +200,12 @@ def plan(n: int, seed: int = 0) -> list[tuple[str, int]]:
 
 
 def run(n: int = 10_000, seed: int = 0, jobs: int = 1, timeout: float = 10.0,
-        save: str | None = None, progress=None) -> Report:
+        save: str | None = None, progress=None, kinds: tuple[str, ...] | None = None
+        ) -> Report:
     """Run ``n`` inputs; ``progress(done, report)`` is called now and then."""
     ctx = mp.get_context("spawn")
     seeds = fuzz.seed_files()
-    todo = plan(n, seed)
+    todo = plan(n, seed, kinds)
     report = Report()
     t_start = time.perf_counter()
 
@@ -187,9 +237,10 @@ def run(n: int = 10_000, seed: int = 0, jobs: int = 1, timeout: float = 10.0,
                         cls, detail, cpu = "internal", "worker process died", 0.0
                         w["proc"].kill()
                         workers[i] = w = {**start(), "job": w["job"]}
-                elif time.monotonic() - w["since"] > timeout:
+                elif time.monotonic() - w["since"] > max(timeout, MIN_TIMEOUT.get(kind, 0)):
                     w["proc"].kill()
-                    cls, detail, cpu = "hang", f"over {timeout:g} s", timeout
+                    limit = max(timeout, MIN_TIMEOUT.get(kind, 0))
+                    cls, detail, cpu = "hang", f"over {limit:g} s", limit
                     workers[i] = w = {**start(), "job": w["job"]}
                 else:
                     continue
@@ -197,7 +248,7 @@ def run(n: int = 10_000, seed: int = 0, jobs: int = 1, timeout: float = 10.0,
                 if cls in fuzz.BAD and save:
                     _save(save, fuzz.make_input(kind, s, seeds), cls, detail)
                 w["job"] = None
-                if progress and report.total % 500 == 0:
+                if progress and report.total % (500 if not kinds else 20) == 0:
                     progress(report.total, report)
     finally:
         for w in workers:

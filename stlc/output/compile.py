@@ -10,6 +10,7 @@ solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tr
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 
@@ -76,13 +77,17 @@ def summary(sol: Solution, outdir: str) -> None:
             name, s = worst
             at = f" at t = {s.tightest_time:g} s" if s.tightest_time is not None else ""
             if s.robustness < 0:
-                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at} by "
-                      f"{-s.robustness:.4f}: {s.binding_predicate}", file=sys.stderr)
+                by = (f" by {-s.robustness:.4f}" if math.isfinite(s.robustness) else
+                      " whatever the plan (no predicate can make it hold)")
+                pred = f": {s.binding_predicate}" if s.binding_predicate else ""
+                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at}{by}"
+                      f"{pred}", file=sys.stderr)
             else:
                 kappa = sol.smoothing.get("threshold", 0.0)
                 print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
-                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}: "
-                      f"{s.binding_predicate}", file=sys.stderr)
+                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
+                      + (f": {s.binding_predicate}" if s.binding_predicate else ""),
+                      file=sys.stderr)
 
 
 def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,

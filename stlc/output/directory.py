@@ -3,17 +3,23 @@ there, and how.
 
 Contract (README, "Output directory"):
 
-* stlc writes only the files it owns (``OWNED``: solution.json, trajectory.csv, report.html,
-  risk.json, risk_samples.npz, ``stlc simulate``'s replan.json and executed.csv, and a team
-  plan's trajectory.<drone>.csv) into DIR and
-  never removes anything else; ``-o .`` is safe.
+* stlc writes only the files of its output set into DIR (``OWNED``: solution.json,
+  trajectory.csv, report.html, risk.json, risk_samples.npz, ``stlc simulate``'s replan.json
+  and executed.csv, and exactly the ``trajectory.<drone>.csv`` of the drones of the mission
+  being written) and never removes anything else; ``-o .`` is safe.
+* Ownership is decided by record, not by name pattern: every publish records the names
+  of the set now in DIR in a manifest, ``.stlc-outputs.json`` (itself an owned name).  A
+  later complete set removes only the files the previous manifest lists and this set does
+  not have (a ``risk.json`` of a run with risk cases, a team's per-drone trajectories); a
+  file with an owned-looking name that no manifest lists (a user's
+  ``trajectory.final.csv``) is never removed.
 * Each run writes its files into a private staging directory inside DIR
   (``.stlc-stage-XXXXXX``), then, holding an exclusive ``flock`` on DIR itself, moves them
-  into place one by one with ``os.replace`` (atomic per file, same file system) and removes
-  owned files this run did not produce (a ``risk.json`` from an earlier run with risk
-  cases), so concurrent runs on one DIR serialise their final step and DIR ends with one
-  complete set, from the run that published last.  On any error or Ctrl-C the staging
-  directory (only the files this run wrote into it) is removed and DIR is untouched.
+  into place one by one with ``os.replace`` (atomic per file, same file system), then the
+  manifest, then removes the stale recorded files, so concurrent runs on one DIR serialise
+  their final step and DIR ends with one complete set, from the run that published last.
+  On any error, Ctrl-C, SIGTERM or SIGHUP the staging directory (only the files this run
+  wrote into it) is removed and DIR is untouched.
 * ``preflight`` checks, before any solve, that DIR can be created or written: an empty
   name, a path through a file, a DIR that is a file, an owned name that is a directory, or
   a directory that refuses a new file gives STL605 (exit 1), located at the mission.
@@ -23,6 +29,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import json
 import os
 import re
 import tempfile
@@ -31,16 +38,32 @@ from collections.abc import Iterator
 from stlc import interrupt
 from stlc.diagnostics import Diagnostic, Span, StlcError
 
-#: every file name stlc may create, replace or remove in an output directory, plus the
-#: per-drone trajectories of a team plan, ``trajectory.<drone>.csv``
+#: every file name stlc may create or replace in an output directory, besides the
+#: per-drone trajectories of a team plan, ``trajectory.<drone>.csv`` (only those of the
+#: drones being written); removal is by record (``MANIFEST``), never by name
 OWNED = ("solution.json", "trajectory.csv", "report.html", "risk.json", "risk_samples.npz",
          "replan.json", "executed.csv")
+MANIFEST = ".stlc-outputs.json"
 _PER_DRONE = re.compile(r"trajectory\.[A-Za-z_][A-Za-z0-9_]*\.csv")
+STAGE_PREFIX = ".stlc-stage-"
 
 
 def owned(name: str) -> bool:
+    """Could ``name`` be one of stlc's outputs?  (A necessary condition for writing or
+    removing it, not a sufficient one: see ``recorded``.)"""
     return name in OWNED or _PER_DRONE.fullmatch(name) is not None
-STAGE_PREFIX = ".stlc-stage-"
+
+
+def recorded(outdir: str) -> set[str]:
+    """The output names the manifest of ``outdir`` lists (the set an earlier run
+    published there); a missing or unreadable manifest lists nothing."""
+    try:
+        with open(os.path.join(outdir, MANIFEST), encoding="utf-8") as fh:
+            data = json.loads(fh.read(1 << 16))
+        files = data.get("files", []) if isinstance(data, dict) else []
+    except (OSError, ValueError):
+        return set()
+    return {f for f in files if isinstance(f, str) and owned(f)}
 
 
 def _fail(message: str, span: Span, help_: str) -> StlcError:
@@ -83,7 +106,7 @@ def preflight(outdir: str, span: Span) -> None:
         raise _fail(f"cannot write to output directory `{outdir}`: {why}", span,
                     f"check the permissions of `{existing}`, or choose another `-o DIR`")
     if existing == path:
-        for name in OWNED:
+        for name in (*OWNED, MANIFEST):
             p = os.path.join(path, name)
             if os.path.lexists(p) and not os.path.isfile(p):
                 raise _fail(f"cannot replace `{p}`: it is not a regular file", span,
@@ -117,20 +140,25 @@ def _cleanup(stage: str) -> None:
 
 
 def publish(stage: str, outdir: str, complete: bool = True) -> list[str]:
-    """Move the files of ``stage`` into ``outdir`` (under the directory lock) and, when the
-    stage is a ``complete`` set (``stlc compile``), remove owned files that this set does
-    not have; ``stlc risk`` adds its two files to a compiled set.  Returns the names."""
+    """Move the files of ``stage`` into ``outdir`` (under the directory lock), record the
+    set in the manifest and, when the stage is a ``complete`` set (``stlc compile``,
+    ``simulate``), remove the files the previous manifest lists that this set does not
+    have; ``stlc risk`` adds its two files to the recorded set.  Returns the names."""
     names = sorted(n for n in os.listdir(stage) if owned(n))
     mode = 0o666 & ~_umask()
     with _locked(outdir), interrupt.deferred():
-        for name in names:
+        before = recorded(outdir)
+        now = set(names) if complete else before | set(names)
+        manifest = os.path.join(stage, MANIFEST)
+        with open(manifest, "w", encoding="utf-8") as fh:
+            json.dump({"written_by": "stlc", "files": sorted(now)}, fh, indent=1)
+        for name in [*names, MANIFEST]:
             src = os.path.join(stage, name)
             os.chmod(src, mode)
             os.replace(src, os.path.join(outdir, name))
-        for name in sorted(set(OWNED) | {n for n in os.listdir(outdir) if owned(n)}
-                           if complete else ()):
+        for name in sorted(before - now):
             p = os.path.join(outdir, name)
-            if name not in names and os.path.isfile(p) and not os.path.islink(p):
+            if os.path.isfile(p) and not os.path.islink(p):
                 os.unlink(p)
     return names
 

@@ -148,10 +148,26 @@ def _check(problem, disturbances: list[model.Disturbance], cfg: model.ReplanConf
 def _waypoint_goal(s: int, G: int, Tg: float, dt: float, last: int) -> int:
     """The first waypoint sample (ceil(j·T_g/dt)) at least G samples after s, capped at
     the last sample."""
+    if s + G >= last:
+        return last
     j = max(0, math.floor((s + G) * dt / Tg) - 1)
-    while steps_ceil(j * Tg, dt) < s + G:
+    for _ in range(4):  # j is within one or two of the answer: a bounded search
+        if steps_ceil(j * Tg, dt) >= s + G:
+            break
         j += 1
+    else:  # pragma: no cover - rounding beyond the grid (T_g / dt past 2^52)
+        return last
     return min(steps_ceil(j * Tg, dt), last)
+
+
+def _event_samples(period: float, horizon: float, dt: float, n: int) -> set[int]:
+    """The samples of the event instants k·T_e: at most one per sample (a period below the
+    step, which the checker refuses, is clamped to every sample), never a loop over more
+    instants than the mission has samples."""
+    if period <= dt:
+        return set(range(n))
+    n_events = min(int(math.floor(horizon / period + 1e-9)) + 1, n)
+    return {min(steps_ceil(k * period, dt), n - 1) for k in range(n_events)}
 
 
 def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
@@ -181,16 +197,17 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
                                                   ("waypoint_period", cfg.waypoint_period),
                                                   ("budget", cfg.compute_budget))
              if not is_aligned(x, dt)]
-    G = max(1, steps_ceil(cfg.waypoint_period, dt))
-    M = 2 * G - 1
+    # bounded by the mission's samples: a waypoint period longer than the horizon gives
+    # one segment to the end, never an NLP sized by the period (issue 23)
+    G = min(max(1, steps_ceil(cfg.waypoint_period, dt)), max(1, n - 1))
+    M = min(2 * G - 1, max(1, n - 1))
     for tr in tracks.values():
         tr.backend = segment(steps=M, budget=cfg.compute_budget, integrator=integrator)
         tr.segment = _segment_problem(problem, plan, tr.vehicle, cfg)
     kicks: dict[int, list[model.Disturbance]] = {}
     for d in disturbances:
         kicks.setdefault(min(steps_ceil(d.time, dt), n - 1), []).append(d)
-    n_events = int(math.floor(grid.horizon / cfg.event_period + 1e-9)) + 1
-    event_at = {min(steps_ceil(k * cfg.event_period, dt), n - 1) for k in range(n_events)}
+    event_at = _event_samples(cfg.event_period, grid.horizon, dt, n)
     events: list[ReplanEvent] = []
     for tr in tracks.values():
         tr.X[0] = tr.ref_X[0]

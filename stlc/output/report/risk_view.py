@@ -28,10 +28,14 @@ def histogram(values: np.ndarray) -> dict | None:
     if x.size == 0:
         return None
     lo, hi = float(x.min()), float(x.max())
-    if hi - lo < 1e-12:
-        lo, hi = lo - 0.5e-3, hi + 0.5e-3
-    n = len(np.histogram_bin_edges(x, bins="auto")) - 1
-    counts, edges = np.histogram(x, bins=int(np.clip(n, MIN_BINS, MAX_BINS)), range=(lo, hi))
+    try:
+        n = int(np.clip(len(np.histogram_bin_edges(x, bins="auto")) - 1, MIN_BINS, MAX_BINS))
+    except (ValueError, MemoryError):  # a range too narrow for its magnitude
+        n = MIN_BINS
+    from stlc.analysis.risk import histogram_range
+
+    lo, hi = histogram_range(lo, hi, n)
+    counts, edges = np.histogram(x, bins=n, range=(lo, hi))
     return {"centers": nums((edges[:-1] + edges[1:]) / 2), "widths": nums(np.diff(edges)),
             "counts": [int(c) for c in counts]}
 

@@ -29,6 +29,9 @@ from stlc.semantics.check.values import (
     VehicleV,
 )
 
+#: payloads a drone carries at once (the payload rule stores counts as int64; a team
+#: with more than a thousand per drone is a typo)
+MAX_CAPACITY = 1000
 REGION_KINDS = ("obstacle", "region", "target", "station", "home")
 GROUP_NAMES = {"obstacles": "obstacle", "regions": "region", "targets": "target",
                "stations": "station", "homes": "home"}
@@ -195,9 +198,10 @@ def _point_mass(ck: Context, b: ast.Block) -> model.PointMass | None:
         if vec is not None and min(vec) <= 0:
             ck.d.error("STL207", f"`{key}` must be positive", f[key].value.span)
             return None
-    if cap is not None and (cap < 0 or cap != round(cap)):
-        ck.d.error("STL207", "`capacity` must be a whole number >= 0",
-                   f["capacity"].value.span)
+    if cap is not None and not (0 <= cap <= MAX_CAPACITY and cap == round(cap)):
+        ck.d.error("STL207", f"`capacity` must be a whole number from 0 to {MAX_CAPACITY:,}, "
+                   f"found {cap:g}", f["capacity"].value.span,
+                   "the number of payloads the drone carries at once")
         cap = None
     start = _start(ck, b, {"pos": units.LENGTH, "vel": units.SPEED})
     aero = _aero(ck, b, f, mass)

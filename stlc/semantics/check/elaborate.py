@@ -182,8 +182,12 @@ class ExpressionElaborator(Context):
         prefix = ".".join(n.parts[:i])
         span = n.span
         match v:
-            case VehicleV(veh):
-                fields = vehicle_fields(veh)
+            case VehicleV(veh):  # cached: quantifier bodies read fields thousands of times
+                cache = self.__dict__.setdefault("_vehicle_fields", {})
+                hit = cache.get(veh.name)
+                if hit is None or hit[0] is not veh:
+                    hit = cache[veh.name] = (veh, vehicle_fields(veh))
+                fields = hit[1]
                 if part in fields:
                     return fields[part]
                 return self.err("STL103", f"vehicle `{veh.name}` ({veh.kind}) has no field "

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 from stlc.diagnostics import Span
 from stlc.frontend import ast
+from stlc.limits import MAX_EXPANSION
 from stlc.semantics import ir
 from stlc.semantics.check import units
 from stlc.semantics.check.context import Context, Scope, misaligned, nearest_hint
@@ -44,6 +45,16 @@ from stlc.semantics.check.values import (
 DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
                "`regions` or a list like [uav1, uav2]")
 
+
+
+
+def _size(node: ast.Node) -> int:
+    """The number of AST nodes of ``node`` (iterative)."""
+    count, stack = 0, [node]
+    while stack:
+        count += 1
+        stack.extend(ast.node_children(stack.pop()))
+    return count
 
 class FormulaElaborator(Context):
     """The formula half of the elaborator (``value`` is ``ExpressionElaborator``'s)."""
@@ -138,16 +149,38 @@ class FormulaElaborator(Context):
                             f"the list holds {kind_name(bad[0])}", n.domain.span, DOMAIN_HINT)
         if len(set(n.names)) != len(n.names):
             return self.err("STL102", "the same name is bound twice", n.span)
-        combos = list(itertools.combinations(dom.items, len(n.names)))
+        if len(dom.items) < len(n.names):
+            if n.kind == "forall":  # vacuously true: `forall d, e in team` for one drone
+                return Form(ir.TrueF(n.span))
+            what = "no element" if not dom.items else f"only {len(dom.items)} element(s)"
+            return self.err("STL212", f"`exists` ranges over {what} ({len(n.names)} "
+                            "distinct one(s) needed): the formula could never hold",
+                            n.domain.span, "declare what it ranges over (e.g. a `station` "
+                            "region for `stations`), or remove the quantifier")
+        count = math.comb(len(dom.items), len(n.names))
+        size = _size(n.body)  # the work of one instance: the body's source nodes
+        outer = getattr(self, "_quant_outer", 1)
+        total = getattr(self, "_quant_total", 0) + count * size  # nodes elaborated so far
+        if outer * count * size > MAX_EXPANSION or total > MAX_EXPANSION:
+            need = max(outer * count * size, total)
+            return self.err("STL606", f"quantifier expansion needs at least {need:,} source "
+                            f"nodes (limit {MAX_EXPANSION:,}): {outer * count:,} instances "
+                            f"of a {size}-node body ({count:,} here, nested inside "
+                            f"{outer:,})",
+                            n.span, "quantify over fewer vehicles or regions, bind fewer "
+                            "names, or nest fewer quantifiers")
+        self._quant_total = total
+        self._quant_outer = outer * count
         parts = []
-        for combo in combos:
-            f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
-            if f is None:
-                return ERROR
-            parts.append(f)
+        try:
+            for combo in itertools.combinations(dom.items, len(n.names)):
+                f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
+                if f is None:
+                    return ERROR
+                parts.append(f)
+        finally:
+            self._quant_outer = outer
         self.closed_quant.update({name: n.span for name in n.names})
-        if not parts:
-            return Form(ir.TrueF(n.span) if n.kind == "forall" else ir.FalseF(n.span))
         if len(parts) == 1:
             return Form(parts[0])
         return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))

@@ -28,6 +28,8 @@ MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
 MAX_COUNT = 10**9  # sample counts, iteration limits
 MAX_SEED = 2**63 - 1
+MAX_K = 10**6  # risk realisations (issue 20 runs 1,000,000, also across Dask workers); the
+#: risk pass works in chunks bounded by the trace length, so memory stays bounded
 OBJECTIVE_TERMS = ("robustness", "energy", "forward_cost")
 
 
@@ -108,6 +110,12 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
     objective = _objective(ck, b, scope)
     smoothing = _smoothing(ck, f, scope)
     threshold = ck.num(f, "threshold", None, 0.0, scope=scope)
+    if threshold is not None and not (math.isfinite(threshold) and threshold >= 0):
+        # κ < 0 would certify violated plans (ρ = -1 reported `satisfied`)
+        ck.d.error("STL207", f"`threshold` must be a finite number >= 0, found {threshold:g}",
+                   f["threshold"].value.span, "the threshold κ is the margin a plan must "
+                   "keep: 0 means \"satisfied\", more means robustly satisfied")
+        threshold = None
     fwd = ck.num(f, "forward_speed", units.SPEED, positive=True, scope=scope)
     dwell = {k: _dwell(ck, f, k, horizon, scope) for k in ("install_time", "refill_time")}
     if objective is not None and fwd is not None:
@@ -145,7 +153,7 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
     options["compare"] = [(c.name or f"variant{i + 1}", _objective(ck, c, scope))
                           for i, c in enumerate(compares)]
     risk = _risk(ck, b)
-    replan = _replan(ck, b, all_specs)
+    replan = _replan(ck, b, all_specs, step)
     if None in (horizon, step, requirement, objective, smoothing, threshold):
         return None
     return model.Mission(
@@ -355,7 +363,7 @@ def _risk(ck: Context, b: ast.Block) -> model.RiskConfig | None:
     f = ck.fields(rb, {"K": False, "delta": False, "beta": False, "seed": False})
     K, delta, seed, betas = 15000, 0.01, 0, (0.7, 0.8, 0.9)
     if "K" in f:
-        K = _whole(ck, f["K"].value, "K", 1, MAX_COUNT) or K
+        K = _whole(ck, f["K"].value, "K", 1, MAX_K) or K
     if "delta" in f:
         delta = _in_unit(ck, f["delta"].value, 0, 1, "delta") or delta
     if "seed" in f:
@@ -397,7 +405,8 @@ def _risk(ck: Context, b: ast.Block) -> model.RiskConfig | None:
     return model.RiskConfig(tuple(cases), K, tuple(betas), delta, seed)
 
 
-def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None:
+def _replan(ck: Context, b: ast.Block, specs: dict, step: float | None = None
+            ) -> model.ReplanConfig | None:
     blocks = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "replan"]
     if not blocks:
         return None
@@ -409,6 +418,11 @@ def _replan(ck: Context, b: ast.Block, specs: dict) -> model.ReplanConfig | None
     tg = ck.num(f, "waypoint_period", units.TIME, 1.0, positive=True)
     tc = ck.num(f, "budget", units.TIME, 0.4, positive=True)
     trep = ck.num(f, "takeover_delay", units.TIME, 10.0)
+    for key, x in (("event_period", te), ("waypoint_period", tg)):
+        if x is not None and step is not None and x < step * (1 - 1e-9):
+            ck.d.error("STL207", f"`{key}` {x:g} s is shorter than the mission step "
+                       f"{step:g} s", f[key].value.span,
+                       f"use at least one step, e.g. `{key} = {step:g} s`")
     if trep is not None and trep < 0:
         ck.d.error("STL207", "`takeover_delay` must not be negative",
                    f["takeover_delay"].value.span)
