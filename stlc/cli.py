@@ -34,11 +34,13 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="parse and type-check .stl files")
     c.add_argument("files", nargs="+", metavar="FILE")
     c.add_argument("--format", choices=("text", "json"), default="text")
+    _set_option(c)
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE")
     m.add_argument("--trace", required=True, metavar="CSV")
     m.add_argument("--json", action="store_true", help="print one JSON object")
+    _set_option(m)
 
     k = sub.add_parser("compile", help="plan a trajectory for each mission and write a report")
     k.add_argument("file", metavar="FILE")
@@ -46,6 +48,7 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--mission", metavar="NAME", default=None)
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
+    _set_option(k)
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -60,16 +63,24 @@ def _parser() -> argparse.ArgumentParser:
                    help="DRONE fails at T s (needs --backup)")
     s.add_argument("--backup", metavar="DRONE", default=None,
                    help="the declared drone that takes over after --fail")
+    _set_option(s)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
     r.add_argument("--trajectory", required=True, metavar="CSV")
     r.add_argument("--mission", metavar="NAME", default=None)
     r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    _set_option(r)
 
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
     return p
+
+
+def _set_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", metavar="NAME=VALUE", action="append", default=[], dest="sets",
+                   help="give a const, a human's pose field (operator.pos.x) or a vehicle's "
+                   "start (uav1.start.pos.y) another value, with its unit (repeatable)")
 
 
 def _number(text: str, what: str) -> float:
@@ -161,7 +172,7 @@ def _print_diags(e: StlcError, sources: dict[str, str] | None) -> None:
 def cmd_check(args) -> int:
     from stlc.pipeline import check_paths
 
-    diags, sources = check_paths(args.files)
+    diags, sources = check_paths(args.files, args.sets)
     if args.format == "json":
         print(to_json(diags))
     elif diags:
@@ -176,7 +187,7 @@ def cmd_monitor(args) -> int:
     from stlc.analysis.trace import read_trace
     from stlc.pipeline import load, monitor_trace
 
-    program = load(args.file).program
+    program = load(args.file, args.sets).program
     trace = read_trace(args.trace)
     res = monitor_trace(program, trace)
     for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
@@ -199,7 +210,7 @@ def cmd_compile(args) -> int:
     from stlc.pipeline import compile_file
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
-                        risk=not args.no_risk)
+                        risk=not args.no_risk, sets=args.sets)
 
 
 def cmd_simulate(args) -> int:
@@ -208,13 +219,15 @@ def cmd_simulate(args) -> int:
 
     fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None
     return simulate_file(args.file, out=args.out, mission=args.mission,
-                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet)
+                         disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
+                         sets=args.sets)
 
 
 def cmd_risk(args) -> int:
     from stlc.pipeline import risk_file
 
-    return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out)
+    return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
+                     sets=args.sets)
 
 
 def cmd_bench(args) -> int:

@@ -26,25 +26,31 @@ from stlc.semantics.check import check
 class Loaded:
     program: model.Program
     timing: dict[str, float] = field(default_factory=dict)
+    values: dict[str, float] = field(default_factory=dict)  # the --set values (SI)
 
 
-def load(path: str) -> Loaded:
-    """Parse and check a file; raises ``StlcError`` with every diagnostic."""
+def load(path: str, sets: list[str] | tuple[str, ...] = ()) -> Loaded:
+    """Parse and check a file; raises ``StlcError`` with every diagnostic.  ``sets`` are
+    ``--set NAME=VALUE`` items, applied to the checked program (``semantics.overrides``)."""
+    from stlc.semantics import overrides
+
     t0 = time.perf_counter()
     tree = parse_file(path)
     t1 = time.perf_counter()
-    program = check(tree)
+    program, values = overrides.checked(tree, overrides.split(sets)) if sets \
+        else (check(tree), {})
     t2 = time.perf_counter()
-    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1})
+    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1}, values)
 
 
-def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
+def check_paths(paths: list[str], sets: list[str] | tuple[str, ...] = ()
+                ) -> tuple[list[Diagnostic], dict[str, str]]:
     """Check several files; returns all diagnostics and the sources (for rendering)."""
     diags: list[Diagnostic] = []
     sources: dict[str, str] = {}
     for p in paths:
         try:
-            loaded = load(p)
+            loaded = load(p, sets)
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
@@ -122,14 +128,17 @@ def _team_comparisons(sols: list) -> None:
 
 
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
-         step: float | None = None, horizon: float | None = None):
-    """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
+         step: float | None = None, horizon: float | None = None,
+         values: dict[str, float] | None = None, chain: list | None = None):
+    """Plan one mission and verify the plan: returns (PlanningProblem, Solution).  ``values``
+    are the instance's ``--set`` values (recorded on the problem); ``chain`` replaces the
+    default backend chain (a sweep's warm start from its plan library)."""
     from stlc.backends.base import run_chain
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import verify
 
-    problem = from_mission(program, mission, step=step, horizon=horizon)
-    chain = backend_chain(problem, quiet)
+    problem = from_mission(program, mission, step=step, horizon=horizon, values=values)
+    chain = chain if chain is not None else backend_chain(problem, quiet)
     sol, sols = run_chain(problem, chain)
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
@@ -169,12 +178,13 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 
 
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
-                 quiet: bool = False, risk: bool = True) -> int:
+                 quiet: bool = False, risk: bool = True,
+                 sets: list[str] | tuple[str, ...] = ()) -> int:
     """``stlc compile``: every selected mission planned, verified, assessed, written."""
     from stlc.output import compile as outputs
 
     t0 = time.perf_counter()
-    loaded = load(path)
+    loaded = load(path, sets)
     program = loaded.program
     missions = select_missions(path, program, mission)
     several = len(missions) > 1
@@ -191,7 +201,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     code = outputs.EXIT_OK
     for m in missions:
         t1 = time.perf_counter()
-        _, sol = plan(program, m, quiet=quiet)
+        _, sol = plan(program, m, quiet=quiet, values=loaded.values)
         sol.timing.update(loaded.timing)
         if risk and m.risk is not None:
             assess_risk(program, m, sol)
@@ -208,7 +218,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
 
 
 def risk_file(path: str, trajectory: str, mission: str | None = None,
-              out: str | None = None) -> int:
+              out: str | None = None, sets: list[str] | tuple[str, ...] = ()) -> int:
     """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
     cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
     (default: the trajectory's directory) and prints a table."""
@@ -218,7 +228,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     from stlc.output.solution import Solution
     from stlc.planning.problem import mission_specs
 
-    program = load(path).program
+    program = load(path, sets).program
     m = select_mission(path, program, mission)
     trace = read_trace(trajectory)
     needed = set(ir.signals(m.requirement))
@@ -311,7 +321,7 @@ def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfi
 
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
-                  quiet: bool = False) -> int:
+                  quiet: bool = False, sets: list[str] | tuple[str, ...] = ()) -> int:
     """``stlc simulate``: compile the mission, fly it through its events (disturbances with
     event-triggered replanning, or a drone failure with a backup's takeover), verify the
     executed trajectory and write the compile outputs plus ``replan.json`` and
@@ -322,7 +332,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     from stlc.output.simulate import simulation_summary, write_simulation
 
     t0 = time.perf_counter()
-    loaded = load(path)
+    loaded = load(path, sets)
     program = loaded.program
     missions = select_missions(path, program, mission)
     if len(missions) > 1:
@@ -336,7 +346,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     cfg = m.replan or model.ReplanConfig()
     if dist:
         _check_kept(program, m, cfg)
-    problem, sol = plan(program, m, quiet=quiet)
+    problem, sol = plan(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
     try:
