@@ -72,6 +72,23 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
     _set_option(r)
 
+    w = sub.add_parser("sweep", help="plan one mission over a grid of --set values, on Dask")
+    w.add_argument("file", metavar="FILE")
+    w.add_argument("--mission", metavar="NAME", default=None)
+    w.add_argument("--vary", metavar="NAME=LO:HI:N", action="append", default=[],
+                   help="an axis: N values from LO to HI (units as in the language)")
+    w.add_argument("--random", metavar="N", type=int, default=None,
+                   help="N uniform draws from the box of the --vary axes instead of a grid")
+    w.add_argument("--seed", type=int, default=0)
+    _set_option(w)
+    g = w.add_mutually_exclusive_group()
+    g.add_argument("--workers", metavar="K", type=int, default=None,
+                   help="local cluster of K worker processes (default: the cores)")
+    g.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="an existing Dask cluster, e.g. tcp://host:8786")
+    w.add_argument("-o", "--out", metavar="DIR", default=None)
+    w.add_argument("-q", "--quiet", action="store_true")
+
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
     return p
@@ -122,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.cmd == "simulate" and (args.fail is None) != (args.backup is None):
         parser.error("--fail and --backup go together")
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
-           "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench}[args.cmd]
+           "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
+           "sweep": cmd_sweep}[args.cmd]
     try:
         # a big-stack worker thread: deep formulas recurse safely, Ctrl-C stops at once
         return interrupt.run(lambda: cmd(args))
@@ -228,6 +246,13 @@ def cmd_risk(args) -> int:
 
     return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
                      sets=args.sets)
+
+
+def cmd_sweep(args) -> int:
+    from stlc.sweep.run import sweep
+
+    return sweep(args.file, args.mission, args.vary, args.sets, args.out, args.workers,
+                 args.scheduler, args.random, args.seed, args.quiet)
 
 
 def cmd_bench(args) -> int:
