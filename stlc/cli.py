@@ -63,6 +63,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="DRONE fails at T s (needs --backup)")
     s.add_argument("--backup", metavar="DRONE", default=None,
                    help="the declared drone that takes over after --fail")
+    s.add_argument("--move", metavar="HUMAN@T:X,Y,Z[:YAW]", type=_move, default=None,
+                   help="the human moves to (X, Y, Z) m [turned to YAW deg] at T s: keep the "
+                   "plan or replan the rest (paper A §6)")
+    s.add_argument("--library", metavar="DIR", default=None,
+                   help="warm-start a replan from the nearest plan of a sweep's DIR")
     _set_option(s)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
@@ -122,6 +127,20 @@ def _disturbance(text: str):
                                          "e.g. 6:1.1,0,0 (seconds, metres)")
     d = tuple(_number(x, "displacement") for x in parts)
     return Disturbance(drone, _number(t, "time"), d)  # type: ignore[arg-type]
+
+
+def _move(text: str):
+    from stlc.replan.move import Move
+
+    human, sep, rest = text.partition("@")
+    parts = rest.split(":")
+    xyz = parts[1].split(",") if len(parts) in (2, 3) else []
+    if not sep or not human or len(xyz) != 3:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected HUMAN@T:X,Y,Z[:YAW], e.g. "
+                                         "operator@8:0.3,0.2,0:20 (s, m, deg)")
+    yaw = math.radians(_number(parts[2], "yaw")) if len(parts) == 3 else None
+    return Move(human, _number(parts[0], "time"), tuple(_number(x, "position") for x in xyz),
+                None if yaw is None else (0.0, 0.0, yaw))
 
 
 def _failure(text: str) -> tuple[str, float]:
@@ -238,7 +257,8 @@ def cmd_simulate(args) -> int:
     fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None
     return simulate_file(args.file, out=args.out, mission=args.mission,
                          disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
-                         sets=args.sets)
+                         sets=args.sets, moves=[args.move] if args.move else None,
+                         library=args.library)
 
 
 def cmd_risk(args) -> int:

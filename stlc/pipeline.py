@@ -321,7 +321,8 @@ def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfi
 
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
-                  quiet: bool = False, sets: list[str] | tuple[str, ...] = ()) -> int:
+                  quiet: bool = False, sets: list[str] | tuple[str, ...] = (),
+                  moves: list | None = None, library: str | None = None) -> int:
     """``stlc simulate``: compile the mission, fly it through its events (disturbances with
     event-triggered replanning, or a drone failure with a backup's takeover), verify the
     executed trajectory and write the compile outputs plus ``replan.json`` and
@@ -340,7 +341,13 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "which to simulate", Span(path, 1, 1, 1, 2),
                                     "pass --mission " + " | ".join(x.name for x in missions))])
     m = missions[0]
-    dist, fails = simulation_events(path, program, m, disturbances, failures)
+    if moves:  # an operator move (paper A §6): replan.move, not disturbances
+        from stlc.replan.move import check_moves
+
+        check_moves(path, program, m, moves)
+        dist, fails = [], []
+    else:
+        dist, fails = simulation_events(path, program, m, disturbances, failures)
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, mission_span(path, m))
     cfg = m.replan or model.ReplanConfig()
@@ -350,7 +357,12 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
     try:
-        if fails:
+        if moves:
+            from stlc.replan.move import moved_program, simulate_move
+
+            sim = simulate_move(problem, sol, moves[0], library)
+            program = moved_program(program, moves[0])
+        elif fails:
             from stlc.replan.takeover import simulate_failure
 
             sim = simulate_failure(problem, sol, fails[0], cfg)
@@ -367,7 +379,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "see `stlc simulate` in the README")]) from None
     # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
     # whole mission, judged over the executed team
-    sim.kept = ("mission",) if fails else (tuple(cfg.specs) or ("mission",))
+    sim.kept = ("mission",) if fails or moves else (tuple(cfg.specs) or ("mission",))
     sol.timing["simulate_s"] = time.perf_counter() - t1
     sol.timing["total_s"] = time.perf_counter() - t0
     write_simulation(outdir, program, m, sol, sim)

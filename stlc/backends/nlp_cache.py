@@ -38,7 +38,7 @@ def _blank_start(v: model.Vehicle) -> model.Vehicle:
 
 
 def structure_key(program: model.Program, mission: model.Mission, grid: TimeGrid,
-                  integrator: str, quiet: bool) -> str:
+                  integrator: str) -> str:
     """What the built NLP depends on, except the values ``bind`` sets."""
     from stlc.backends import casadi_nlp
     from stlc.backends.casadi_expr import planner_form
@@ -48,7 +48,7 @@ def structure_key(program: model.Program, mission: model.Mission, grid: TimeGrid
     parts = (tuple(repr(_blank_start(program.vehicles[n])) for n in mission.vehicles),
              repr(planned), mission.threshold, mission.smoothing, mission.objective,
              repr(sorted(mission.options.items(), key=lambda kv: kv[0])), grid.n, grid.dt,
-             integrator, quiet, casadi_nlp.FIX_CHOICES, casadi_nlp.FIX_WINDOWS,
+             integrator, casadi_nlp.FIX_CHOICES, casadi_nlp.FIX_WINDOWS,
              os.environ.get("STLC_IPOPT", ""))
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
@@ -74,7 +74,7 @@ def lowered(program: model.Program, mission: model.Mission, grid: TimeGrid,
     """(NlpProblem, InverseData, built now?) for this instance, its values bound."""
     from stlc.backends import casadi_nlp
 
-    key = structure_key(program, mission, grid, integrator, quiet)
+    key = structure_key(program, mission, grid, integrator)
     hit = _CACHE.get(key)
     built = hit is None
     if built:
@@ -87,6 +87,7 @@ def lowered(program: model.Program, mission: model.Mission, grid: TimeGrid,
         STATS["reused"] += 1
         _CACHE.move_to_end(key)
     prob, inv = hit
+    prob.progress.quiet = quiet
     bind(prob, inv, program)
     return prob, inv, built
 

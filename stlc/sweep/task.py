@@ -69,7 +69,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
     lib = None
     if isinstance(chain[-1], CasadiNlp):
         integrator = str(m.options.get("integrator", "rk4"))
-        key = (mission, structure_key(program, m, problem.grid, integrator, True))
+        key = (mission, structure_key(program, m, problem.grid, integrator))
         lib = _LIBRARIES.setdefault(key, PlanLibrary())
         near = lib.nearest(vals) if warm else None
         if near is not None:
