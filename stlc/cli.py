@@ -76,6 +76,11 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--mission", metavar="NAME", default=None)
     r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
     _set_option(r)
+    rg = r.add_mutually_exclusive_group()
+    rg.add_argument("--workers", metavar="K", type=int, default=None,
+                    help="evaluate the realisations in batches on a local Dask cluster")
+    rg.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                    help="... or on an existing Dask cluster")
 
     w = sub.add_parser("sweep", help="plan one mission over a grid of --set values, on Dask")
     w.add_argument("file", metavar="FILE")
@@ -264,8 +269,18 @@ def cmd_simulate(args) -> int:
 def cmd_risk(args) -> int:
     from stlc.pipeline import risk_file
 
-    return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
-                     sets=args.sets)
+    if args.workers is None and args.scheduler is None:
+        return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
+                         sets=args.sets)
+    from stlc.analysis.risk_parallel import distributed
+    from stlc.sweep.run import _client, _close
+
+    client, cluster = _client(args.workers, args.scheduler, args.file)
+    try:
+        return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
+                         sets=args.sets, shared=distributed(client))
+    finally:
+        _close(client, cluster)
 
 
 def cmd_sweep(args) -> int:

@@ -218,7 +218,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
 
 
 def risk_file(path: str, trajectory: str, mission: str | None = None,
-              out: str | None = None, sets: list[str] | tuple[str, ...] = ()) -> int:
+              out: str | None = None, sets: list[str] | tuple[str, ...] = (),
+              shared=None) -> int:
     """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
     cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
     (default: the trajectory's directory) and prints a table."""
@@ -237,7 +238,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     check_signals(trace, needed)
     sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
     try:
-        risk_json, results = run_risk(program, m, sol, dt=trace.dt)
+        risk_json, results = run_risk(program, m, sol, dt=trace.dt, shared=shared)
     except (RiskError, SamplingError) as e:
         raise StlcError([Diagnostic("STL209", f"cannot assess the risk cases of `{m.name}`: "
                                     f"{e}", m.span, "check the risk block's distributions")]

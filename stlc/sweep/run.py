@@ -58,7 +58,7 @@ def _client(workers: int | None, scheduler: str | None, path: str):
                             ) from None
     k = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR,
+                           dashboard_address=":0", silence_logs=logging.ERROR,
                            env={"OMP_NUM_THREADS": "1", "STLC_NO_FORK": "1"})
     return Client(cluster), cluster
 
