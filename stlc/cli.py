@@ -236,7 +236,7 @@ def cmd_monitor(args) -> int:
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
-        from stlc.output.solution import strict_dumps
+        from stlc.strictjson import strict_dumps
 
         print(strict_dumps({"specs": res}))
     else:

@@ -115,7 +115,7 @@ def backend_chain(problem, quiet: bool = True) -> list:
 def _team_comparisons(sols: list) -> None:
     """A team plan is shown beside its seed ("MILP only", paper B Fig. 8), first; the
     refinement already added the standard plan of a ``compare`` variant (Fig. 11)."""
-    from stlc.output.solution import Comparison
+    from stlc.planning.solution import Comparison
 
     seed, final = sols[0], sols[-1]
     final.comparisons.insert(0, Comparison("MILP only", dict(seed.channels)))
@@ -226,8 +226,8 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     from stlc.analysis.assess import risk_table, run_risk, select_mission
     from stlc.analysis.risk import RiskError, SamplingError, save_samples
     from stlc.analysis.trace import check_signals, read_trace
-    from stlc.output.solution import Solution
-    from stlc.planning.problem import mission_specs
+    from stlc.planning.solution import Solution
+    from stlc.semantics.specs import mission_specs
 
     program = load(path, sets).program
     m = select_mission(path, program, mission)
@@ -245,7 +245,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
                         ) from None
     outdir = out or os.path.dirname(os.path.abspath(trajectory))
     from stlc.output.directory import staged
-    from stlc.output.solution import strict
+    from stlc.strictjson import strict
 
     target = os.path.join(outdir, "risk.json")
     with staged(outdir, mission_span(path, m),

@@ -18,8 +18,8 @@ import pytest
 
 from stlc import pipeline, vehicles
 from stlc.backends.casadi_nlp import substeps
-from stlc.output.solution import Solution
-from stlc.planning import dynamics
+from stlc.planning.solution import Solution
+from stlc.vehicles import dynamics
 from stlc.planning.problem import from_mission
 from stlc.replan.disturb import DisturbanceError, simulate_disturbances
 from stlc.replan.segment import KeptSpecError

@@ -22,7 +22,7 @@ from stlc.output.report.common import num
 from stlc.output.report.predicates import predicate_line, readable
 from stlc.output.report.risk_view import MAX_BINS, MIN_BINS
 from stlc.output.report.scene import region_role, rotation
-from stlc.output.solution import Comparison, Solution, SpecResult, Window
+from stlc.planning.solution import Comparison, Solution, SpecResult, Window
 from stlc.semantics.ir import Always, And, Bin, Bound, Const, Eventually, Or, Pred, Sig
 from stlc.semantics.model import (
     Box,

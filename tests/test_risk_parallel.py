@@ -8,7 +8,7 @@ import pytest
 from stlc.analysis import monitor
 from stlc.analysis.assess import run_risk
 from stlc.analysis.risk_parallel import BATCH, distributed
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.pipeline import load
 
 SOURCE = """\

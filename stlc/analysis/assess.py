@@ -12,15 +12,26 @@ command itself is ordered by ``stlc.pipeline.risk_file``).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Protocol
+
+import numpy as np
+
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
-from stlc.output.solution import Solution
-from stlc.planning.problem import mission_specs
 from stlc.semantics import model, nnf
+from stlc.semantics.specs import mission_specs
+
+
+class Plan(Protocol):
+    """What the risk pass reads of a plan: its named channels (a ``Solution`` is one; the
+    analysis layer sits below the planning layer and never imports it)."""
+
+    channels: Mapping[str, np.ndarray]
 
 EXIT_OK = 0
 
 
-def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
+def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
              dt: float | None = None, shared=None):
     """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results), or
     (None, None) without a ``risk`` block.  ``dt`` is the plan's sample period (default:

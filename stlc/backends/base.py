@@ -25,7 +25,7 @@ from stlc.diagnostics import Diagnostic, StlcError
 from stlc.semantics import ir
 
 if TYPE_CHECKING:
-    from stlc.output.solution import Solution
+    from stlc.planning.solution import Solution
     from stlc.planning.problem import PlanningProblem
 
 

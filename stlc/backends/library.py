@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from stlc import vehicles
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
-from stlc.output.solution import Solution, Verdict
+from stlc.planning.solution import Solution, Verdict
 
 NAME = "plan library"
 
@@ -92,9 +93,9 @@ def warm_start(prob, inv, channels: dict[str, np.ndarray], params: dict[str, flo
     n = inv.grid.n
     w = np.zeros(prob.n_vars)
     for L in inv.layouts:
-        v = L.vehicle
-        X = np.array([np.asarray(channels[c], float)[:n] for c in v.channels()])
-        U = np.array([np.asarray(channels[c], float)[: n - 1] for c in v.input_channels()])
+        v, vm = L.vehicle, vehicles.model_of(L.vehicle)
+        X = np.array([np.asarray(channels[c], float)[:n] for c in vm.state_channels(v)])
+        U = np.array([np.asarray(channels[c], float)[: n - 1] for c in vm.input_channels(v)])
         lo, hi = prob.lbx[L.x_slice][: L.nx], prob.ubx[L.x_slice][: L.nx]
         X[:, 0] = np.clip(X[:, 0], lo, hi)  # the instance's own start
         w[L.x_slice] = X.T.ravel()

@@ -32,7 +32,7 @@ STATS = {"builds": 0, "reused": 0}
 
 
 def _blank_start(v: model.Vehicle) -> model.Vehicle:
-    if v.kind == "multirotor":
+    if hasattr(v, "start_att"):
         return replace(v, start_pos=(0.0, 0.0, 0.0), start_att=(0.0, 0.0, 0.0))
     return replace(v, start_pos=(0.0, 0.0, 0.0))
 

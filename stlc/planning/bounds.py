@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from stlc import vehicles
-from stlc.output.solution import Window
+from stlc.planning.solution import Window
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.analysis import monitor, smooth
-from stlc.output.solution import Solution, SpecResult, Verdict
+from stlc.planning.solution import Solution, SpecResult, Verdict
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir

@@ -66,7 +66,7 @@ from stlc import vehicles
 from stlc.analysis import monitor
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import substeps
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
 from stlc.planning.verify import recompute_derived
 from stlc.replan.result import ReplanEvent, SimulationResult
 from stlc.replan.segment import Clause, KeptSpecError, SegmentNlp, kept_clauses

@@ -75,7 +75,7 @@ def _risk(program, mission, channels, times) -> dict | None:
     if mission.risk is None:
         return None
     from stlc.analysis.assess import run_risk
-    from stlc.output.solution import Solution
+    from stlc.planning.solution import Solution
 
     s = Solution(mission.name, "satisfied", 0.0, 0.0, {}, 0.0, times, channels)
     risk_json, _ = run_risk(program, mission, s)

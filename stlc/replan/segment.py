@@ -8,7 +8,7 @@ trajectory NLP that replanning needs and nothing more:
   with the plan's integrator at the mission step (``dynamics.discrete_dynamics``, same
   sub-steps as ``casadi_nlp``), multiple shooting, inputs held over each step; the state and
   input bounds (rotor forces, per-axis velocity/acceleration) and the flight envelope of
-  ``casadi_nlp.envelope``;
+  the vehicle model (``envelope``);
 * **a fixed number of intervals** ``M`` (the longest segment the waypoint rule can produce)
   with a *mask* parameter: ``x_{k+1} = x_k + m_k·(F(x_k, u_k) − x_k)``, ``m_k = 1`` for the
   ``L`` active steps and ``0`` after them, where the state is held.  So every segment lies on
@@ -47,8 +47,8 @@ import numpy as np
 from stlc import vehicles
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import ExprEnv, gkl_max, lower_expr, planner_form, smin
-from stlc.backends.casadi_nlp import STATUS_MAP, envelope, substeps
-from stlc.planning import dynamics
+from stlc.backends.casadi_nlp import STATUS_MAP, substeps
+from stlc.vehicles import dynamics
 from stlc.semantics import ir, model
 
 #: λ of the smooth max/min inside a kept spec's body (on scaled planner margins)
@@ -186,7 +186,7 @@ class SegmentNlp:
         nxt = prev + ca.repmat(mask, nx, 1) * (F.map(M)(prev, U) - prev)
         g = [ca.vec(X - nxt), X[:, -1] - xg]
         self.n_eq = nx * M + nx
-        b = envelope(vehicle, vm.bounds(vehicle))
+        b = vm.envelope(vehicle, vm.bounds(vehicle))
         u_scale = np.where(np.isfinite(b.u_hi), np.maximum(np.abs(b.u_hi), np.abs(b.u_lo)), 1.0)
         # kept-spec rows, one block per clause, each M long (node-major inside a row)
         chans = {c: X[i, :] for i, c in enumerate(vm.state_channels(vehicle))}

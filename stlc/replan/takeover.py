@@ -91,7 +91,7 @@ def validate(problem, plan, failure: model.Failure, cfg: model.ReplanConfig) -> 
     if b in problem.team:
         raise TakeoverError(f"backup `{b}` is already in the team of mission `{m.name}`", b)
     v = prog.vehicles[b]
-    if vehicles.model_of(v).kind != "point_mass":
+    if not vehicles.model_of(v).carries_payload(v):
         raise TakeoverError(f"backup `{b}` is a {vehicles.model_of(v).kind}; the takeover "
                             "plans point-mass drones", b)
     if v.capacity is None or v.capacity < 1:

@@ -85,7 +85,7 @@ def settable(tree: ast.File, program: model.Program) -> dict[str, tuple[str, Spa
             for a in "xyz":
                 out[f"{h.name}.{f}.{a}"] = ("human", h.span)
     for v in program.vehicles.values():
-        for f in ("pos", "att") if v.kind == "multirotor" else ("pos",):
+        for f in ("pos", "att") if hasattr(v, "start_att") else ("pos",):
             for a in "xyz":
                 out[f"{v.name}.start.{f}.{a}"] = ("start", v.span)
     return out

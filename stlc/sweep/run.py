@@ -207,7 +207,7 @@ def _csv(axes, rows: list[dict], spec_names: list[str]) -> str:
 def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, workers,
            scheduler, interrupted, random=None, seed=0) -> dict:
     from stlc.output.directory import _locked
-    from stlc.output.solution import strict
+    from stlc.strictjson import strict
     from stlc.sweep.report import render
 
     rows = [rows_by_i[i] for i in sorted(rows_by_i)]

@@ -57,6 +57,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
     from stlc.backends.casadi_backend import CasadiNlp
     from stlc.backends.nlp_cache import structure_key
     from stlc.frontend.syntax import parse
+    from stlc.output.solution import trajectory_csv
     from stlc.pipeline import backend_chain, plan, select_missions
     from stlc.planning.problem import from_mission
     from stlc.semantics import overrides
@@ -82,4 +83,4 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
             "iterations": int(st.get("iterations", 0) or 0),
             "solve_s": float(sol.timing.get("solve_s", 0.0)),
-            "warm": chain[0].name, "plan_csv": sol.trajectory_csv()}
+            "warm": chain[0].name, "plan_csv": trajectory_csv(sol)}

@@ -25,7 +25,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Objective, Program
 from stlc.vehicles import model_of
 
@@ -72,7 +72,7 @@ def energy(program: Program, mission: Mission, sol: Solution) -> dict:
     """The ``energy`` section of the view model."""
     t = np.asarray(sol.times, float)
     names = vehicles(mission, sol)
-    modelled = any(model_of(program.vehicles[v]).kind == "multirotor"
+    modelled = any(model_of(program.vehicles[v]).has_rotor_energy(program.vehicles[v])
                    for v in names if v in program.vehicles)
 
     def axis(n: int) -> list[float | None]:

@@ -1,4 +1,4 @@
-"""Benchmark of the backup-drone takeover (paper B §IV-C): ``python -m stlc.replan.takeover_bench``.
+"""Benchmark of the backup-drone takeover (paper B §IV-C): ``python -m stlc.bench.takeover``.
 
 Plans the team mission once (``stlc.pipeline.plan``), then for each failure time runs
 ``stlc.replan.takeover.simulate_failure`` ``--repeat`` times and prints one row per failure
@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     from stlc.replan.takeover import GOAL_S, TARGET_S, simulate_failure
     from stlc.semantics import model
 
-    ap = argparse.ArgumentParser(prog="python -m stlc.replan.takeover_bench")
+    ap = argparse.ArgumentParser(prog="python -m stlc.bench.takeover")
     ap.add_argument("--file", default=None)
     ap.add_argument("--mission", default="bird_diverter_2x7")
     ap.add_argument("--fail", default="uav1")

@@ -1,4 +1,4 @@
-"""Benchmark of disturbance replanning: ``python -m stlc.replan.bench``.
+"""Benchmark of disturbance replanning: ``python -m stlc.bench.replan``.
 
 Plans ``handover_left_tb`` (``specs/handover.stl``) once — or loads the plan cached by an
 earlier run, or a ``trajectory.csv`` given with ``--trajectory`` — then
@@ -28,7 +28,7 @@ from collections import Counter
 import numpy as np
 
 from stlc.analysis import monitor
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.planning.problem import from_mission
 from stlc.replan.disturb import simulate_disturbances
 from stlc.replan.segment import kept_clauses
@@ -136,7 +136,7 @@ def summary(events, results, budget: float) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m stlc.replan.bench", description=__doc__)
+    ap = argparse.ArgumentParser(prog="python -m stlc.bench.replan", description=__doc__)
     ap.add_argument("--file", default="specs/handover.stl")
     ap.add_argument("--mission", default="handover_left_tb")
     ap.add_argument("--trajectory", help="a trajectory.csv to fly instead of compiling")

@@ -4,7 +4,7 @@ energy and rotor speed.
 Consumed through the vehicle registry (``stlc.vehicles``: layout, bounds, start state,
 derived signals per model), by the CasADi backend (SX expressions, multiple shooting), by
 the simulator / replay and by the monitor and reports (numpy).  Rotor geometry and
-allocation live in ``stlc.analysis.geometry``.
+allocation live in ``stlc.vehicles.geometry``.
 
 Multirotor (paper A, eq. 1), state in ``Multirotor.channels()`` order
     x = (p (3), η = (roll φ, pitch θ, yaw ψ) (3), v (3, world), ω (3, body), ξ (n)),  u = ξ̇ (n)
@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from stlc.analysis.geometry import allocation, wrench_matrix
-from stlc.semantics.model import Multirotor, PointMass
+from stlc.vehicles.geometry import allocation, wrench_matrix
+from stlc.vehicles.declared import Multirotor, PointMass
 
 #: state layout offsets of the multirotor (see module docstring)
 POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), 12
