@@ -126,8 +126,9 @@ def simulate_move(problem, sol, move: Move, library: str | None = None) -> Simul
                 lib = PlanLibrary()
                 for vals, ch in _library_plans(library):
                     lib.add(vals, ch, "library")
-                near = lib.nearest({f"{move.human}.pos.{a}": move.pos[i]
-                                    for i, a in enumerate("xyz")})
+                near = lib.nearest({f"{move.human}.{f}.{a}": v[i]
+                                    for f, v in (("pos", move.pos), ("att", move.att))
+                                    if v is not None for i, a in enumerate("xyz")})
                 if near is not None:
                     seed_ch, source = near[0], f"library {library} (distance {near[2]:.3g})"
             w_now = warm_start(prob, inv, sol.channels, program.params, m.smoothing.lam)
