@@ -95,3 +95,36 @@ def test_bad_move(tmp_path):
     r = subprocess.run([sys.executable, "-m", "stlc", "simulate", str(f), "--move", "op@1:0,0"],
                        capture_output=True, text=True)
     assert r.returncode == 2
+
+
+def test_library_warm_start(tmp_path):
+    """--library DIR: the replan starts from the sweep plan nearest to the new pose (a
+    sweep directory written by hand here); the verdict is still the exact monitor's."""
+    from stlc.output.solution import trajectory_csv
+    from stlc.pipeline import plan
+    from stlc.replan.move import Move, _library_plans, simulate_move
+
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    lib = tmp_path / "lib"
+    (lib / "plans").mkdir(parents=True)
+    rows = ["instance,op.pos.y,status,robustness,spec.reach,iterations,solve_s,total_s,worker,"
+            "error"]
+    for i, y in enumerate((0.0, -1.2)):
+        lo = load(str(f), [f"op.pos.y={y} m"])
+        _, s = plan(lo.program, lo.program.missions["m"], values=lo.values)
+        assert s.status == "satisfied"
+        (lib / "plans" / f"{i}.csv").write_text(trajectory_csv(s))
+        rows.append(f"{i},{y},satisfied,{s.robustness_exact},0,1,0,0,w,")
+    (lib / "sweep.csv").write_text("\n".join(rows) + "\n")
+    plans = _library_plans(str(lib))
+    assert [v for v, _ in plans] == [{"op.pos.y": 0.0}, {"op.pos.y": -1.2}]
+    prog = load(str(f)).program
+    problem, sol = plan(prog, prog.missions["m"])
+    res = simulate_move(problem, sol, Move("op", 0.6, (1.5, -1.1, 0.0)), library=str(lib))
+    ev = res.events[0]
+    assert ev.triggered and ev.detail["warm_start"].startswith("library")
+    moved = load(str(f), ["op.pos.y=-1.1 m"]).program
+    rho = monitor.robustness(moved.missions["m"].requirement, 0.2, res.executed, moved.params)
+    assert rho == pytest.approx(res.executed_robustness["mission"], abs=1e-12)
+    assert ev.accepted == (rho >= 0)

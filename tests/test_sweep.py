@@ -156,7 +156,8 @@ def test_ctrl_c_leaves_finished_rows(tmp_path):
     (out / "mine.txt").write_text("keep")
     p = subprocess.Popen([sys.executable, "-m", "stlc", "sweep", str(f), "--mission", "m",
                           "--vary", "op.pos.y=-0.5 m:0.5 m:40", "--workers", "1", "-o",
-                          str(out)], env=ENV, stderr=subprocess.PIPE, text=True)
+                          str(out)], env=ENV, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     seen = threading.Event()
 
     def watch():
