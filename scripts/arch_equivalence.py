@@ -4,6 +4,7 @@ replanning events of the ``simulate`` demos of both papers.
 
     python scripts/arch_equivalence.py --write OUT.json        # record
     python scripts/arch_equivalence.py --compare BEFORE.json   # re-run and compare (1e-9)
+    python scripts/arch_equivalence.py --frozen-clock --write OUT.json  # load-independent events
 
 Each case runs the CLI in a subprocess (the public behaviour), reading ``solution.json``
 and ``replan.json``."""
@@ -36,9 +37,13 @@ def _num(x):
     return None if x is None else float(x)
 
 
-def run_case(cmd: str, path: str, mission: str) -> dict:
+FROZEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "frozen_clock.py")
+
+
+def run_case(cmd: str, path: str, mission: str, frozen: bool = False) -> dict:
     with tempfile.TemporaryDirectory() as out:
-        argv = [sys.executable, "-m", "stlc", cmd, path, "--mission", mission, "-o", out, "-q"]
+        head = [sys.executable, FROZEN] if frozen else [sys.executable, "-m", "stlc"]
+        argv = [*head, cmd, path, "--mission", mission, "-o", out, "-q"]
         if cmd == "compile":
             argv.append("--no-risk")
         p = subprocess.run(argv, capture_output=True, text=True)
@@ -60,12 +65,17 @@ def run_case(cmd: str, path: str, mission: str) -> dict:
         return rec
 
 
-def record() -> dict:
+def record(frozen: bool = False, only: str | None = None) -> dict:
+    """Every case (or the ``only`` command's); with ``frozen`` only the ``simulate`` ones,
+    with the segment's clock frozen (``frozen_clock.py``: events decided by the
+    mathematics, not the load)."""
     res = {}
     for cmd, path, mission in CASES:
+        if (frozen and cmd != "simulate") or (only and cmd != only):
+            continue
         key = f"{cmd} {path} {mission}"
         print(key, file=sys.stderr, flush=True)
-        res[key] = run_case(cmd, path, mission)
+        res[key] = run_case(cmd, path, mission, frozen)
     return res
 
 
@@ -95,15 +105,18 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--write", metavar="OUT")
     ap.add_argument("--compare", metavar="BEFORE")
+    ap.add_argument("--frozen-clock", action="store_true",
+                    help="simulate cases only, the replanning segment's clock frozen")
+    ap.add_argument("--only", choices=("compile", "simulate"))
     args = ap.parse_args()
-    res = record()
+    res = record(args.frozen_clock, args.only)
     if args.write:
         with open(args.write, "w") as fh:
             json.dump(res, fh, indent=1, sort_keys=True)
     if args.compare:
         with open(args.compare) as fh:
             before = json.load(fh)
-        d = diff(before, res)
+        d = diff({k: v for k, v in before.items() if k in res}, res)
         print("\n".join(d) if d else "identical (exact robustness to 1e-9, same events)")
         return 1 if d else 0
     return 0

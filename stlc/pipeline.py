@@ -14,9 +14,8 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.diagnostics import Diagnostic, Span, StlcError
+from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
@@ -90,10 +89,6 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
     return out
 
 
-def as_float(x) -> float:
-    return float(np.asarray(x).reshape(-1)[0])
-
-
 # ---------------------------------------------------------------- planning
 
 
@@ -164,12 +159,9 @@ def mission_span(path: str, m: model.Mission) -> Span:
 
 def select_missions(path: str, program: model.Program, name: str | None) -> list:
     if name is not None:
-        if name not in program.missions:
-            raise StlcError([Diagnostic("STL101", f"no mission `{name}` in {path}",
-                                        Span(path, 1, 1, 1, 2),
-                                        did_you_mean(name, program.missions) or
-                                        "missions: " + ", ".join(program.missions))])
-        return [program.missions[name]]
+        from stlc.semantics.specs import mission_named
+
+        return [mission_named(path, program, name)]
     if not program.missions:
         raise StlcError([Diagnostic("STL109", f"{path} declares no mission to compile",
                                     Span(path, 1, 1, 1, 2),
@@ -198,7 +190,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if out == "":  # not "the current directory" (nor `-o ""` + mission name)
             preflight(out, span)
         preflight(outdirs[m.name], span)
-    code = outputs.EXIT_OK
+    code = EXIT_OK
     for m in missions:
         t1 = time.perf_counter()
         _, sol = plan(program, m, quiet=quiet, values=loaded.values)
@@ -211,7 +203,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
         if sol.status != "satisfied":
-            code = outputs.EXIT_UNSAT
+            code = EXIT_UNSAT
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code
@@ -269,7 +261,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
     """The events of ``stlc simulate``: those given on the command line (``--disturb``,
     ``--fail``) replace the file's ``simulate`` block; each is checked like the file's
     (reported at the mission's name, exit 1)."""
-    from stlc.backends.team_backend import reads_payload
+    from stlc.semantics.specs import reads_payload
     from stlc.semantics.check.events import event_problems
 
     span = mission_span(path, m)
@@ -307,7 +299,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
 def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfig) -> None:
     """Before any solve: can a replanning segment keep the specs of ``keep = [...]``?"""
     from stlc.planning.problem import from_mission
-    from stlc.replan.segment import KeptSpecError, kept_clauses
+    from stlc.planning.kept import KeptSpecError, kept_clauses
 
     problem = from_mission(program, m)
     try:
@@ -329,7 +321,6 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     executed trajectory and write the compile outputs plus ``replan.json`` and
     ``executed.csv``.  Exit 0 when every triggered replan was accepted and the executed
     trajectory satisfies the kept specs, 3 otherwise."""
-    from stlc.output import compile as outputs
     from stlc.output.directory import preflight
     from stlc.output.simulate import simulation_summary, write_simulation
 
@@ -359,18 +350,21 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     t1 = time.perf_counter()
     try:
         if moves:
+            from stlc.backends.move_replan import replan_rest
             from stlc.replan.move import moved_program, simulate_move
 
-            sim = simulate_move(problem, sol, moves[0], library)
+            sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
             program = moved_program(program, moves[0])
         elif fails:
+            from stlc.backends.backup import BackupPlanner
             from stlc.replan.takeover import simulate_failure
 
-            sim = simulate_failure(problem, sol, fails[0], cfg)
+            sim = simulate_failure(problem, sol, fails[0], cfg, planner=BackupPlanner())
         else:
+            from stlc.backends.segment import SegmentBackend
             from stlc.replan.disturb import simulate_disturbances
 
-            sim = simulate_disturbances(problem, sol, dist, cfg)
+            sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
     except ValueError as e:  # the replanning modules' input errors (subclasses)
         if type(e) is ValueError:
             raise
@@ -387,4 +381,4 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     ok = simulation_summary(sim, outdir, quiet)
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    return outputs.EXIT_OK if ok else outputs.EXIT_UNSAT
+    return EXIT_OK if ok else EXIT_UNSAT

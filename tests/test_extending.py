@@ -300,4 +300,6 @@ def test_a_toy_backend_plans_through_the_interface(tmp_path):
     assert sol.specs["high"].robustness == pytest.approx(0.5)
     assert sol.specs["away"].robustness == pytest.approx(-0.75)
     assert sol.status == Verdict.SATISFIED and sol.solver["converged"]
+    # the binding predicate's source line comes from its span
+    assert (sol.specs["high"].binding_line, sol.specs["away"].binding_line) == (10, 11)
     assert np.allclose(sol.channels["d1.speed"], 0.0)  # derived signals recomputed

@@ -4,7 +4,7 @@ stays inside one unit (a folder, or a top-level module).
 
 The units, lowest first (``LAYERS``)::
 
-    ground     stlc (the package), diagnostics, interrupt, strictjson
+    ground     stlc (the package), diagnostics, interrupt, strictjson, exitcodes
     frontend   source text → AST
     vehicles   declared data, dynamics, geometry and behaviour of each vehicle model
     semantics  checker → checked Program, IR, NNF, time grid, named specs
@@ -30,7 +30,7 @@ from collections import defaultdict
 from test_import_graph import graph
 
 LAYERS: list[set[str]] = [
-    {"stlc", "diagnostics", "interrupt", "strictjson"},
+    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes"},
     {"frontend"},
     {"vehicles"},
     {"semantics"},
@@ -104,3 +104,13 @@ def test_the_checker_catches_an_upward_import():
          "stlc.output.a": {"stlc.output.b"}, "stlc.output.b": set(), "stlc.semantics.ir": set()}
     assert violations(g) == ["stlc.semantics.check.x (semantics) imports "
                              "stlc.planning.problem (planning)"]
+
+
+def test_replanning_uses_the_backends_only_through_their_interface():
+    """``stlc/replan/`` keeps the flight loop, the event logic and its result type; the
+    planners (segment NLP, backup planner) are handed to it by the pipeline, so it imports
+    nothing from ``stlc/backends/`` but the interface ``stlc.backends.base``."""
+    g = graph()
+    reach = sorted({t for m, ts in g.items() if m.startswith("stlc.replan")
+                    for t in ts if t.startswith("stlc.backends.") and t != "stlc.backends.base"})
+    assert not reach, f"replan reaches past the Backend interface: {reach}"

@@ -102,7 +102,8 @@ def test_library_warm_start(tmp_path):
     sweep directory written by hand here); the verdict is still the exact monitor's."""
     from stlc.output.solution import trajectory_csv
     from stlc.pipeline import plan
-    from stlc.replan.move import Move, _library_plans, simulate_move
+    from stlc.backends.move_replan import _library_plans, replan_rest
+    from stlc.replan.move import Move, simulate_move
 
     f = tmp_path / "m.stl"
     f.write_text(SOURCE)
@@ -121,7 +122,8 @@ def test_library_warm_start(tmp_path):
     assert [v for v, _ in plans] == [{"op.pos.y": 0.0}, {"op.pos.y": -1.2}]
     prog = load(str(f)).program
     problem, sol = plan(prog, prog.missions["m"])
-    res = simulate_move(problem, sol, Move("op", 0.6, (1.5, -1.1, 0.0)), library=str(lib))
+    res = simulate_move(problem, sol, Move("op", 0.6, (1.5, -1.1, 0.0)), library=str(lib),
+                        replanner=replan_rest)
     ev = res.events[0]
     assert ev.triggered and ev.detail["warm_start"].startswith("library")
     moved = load(str(f), ["op.pos.y=-1.1 m"]).program

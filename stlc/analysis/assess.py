@@ -17,9 +17,9 @@ from typing import Protocol
 
 import numpy as np
 
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.semantics import model, nnf
-from stlc.semantics.specs import mission_specs
+from stlc.semantics.specs import mission_named, mission_specs
 
 
 class Plan(Protocol):
@@ -27,9 +27,6 @@ class Plan(Protocol):
     analysis layer sits below the planning layer and never imports it)."""
 
     channels: Mapping[str, np.ndarray]
-
-EXIT_OK = 0
-
 
 def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
              dt: float | None = None, shared=None):
@@ -55,12 +52,7 @@ def select_mission(path: str, program: model.Program, mission: str | None) -> mo
     where = Span(path, 1, 1, 1, 2)
     with_risk = [m for m, mm in program.missions.items() if mm.risk is not None]
     if mission is not None:
-        if mission not in program.missions:
-            raise StlcError([Diagnostic(
-                "STL101", f"no mission `{mission}` in {path}", where,
-                did_you_mean(mission, program.missions) or
-                "missions: " + (", ".join(program.missions) or "none"))])
-        m = program.missions[mission]
+        m = mission_named(path, program, mission)
         if m.risk is None:
             raise StlcError([Diagnostic(
                 "STL109", f"mission `{mission}` has no `risk` block to assess", m.span,

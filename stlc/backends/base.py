@@ -151,9 +151,6 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
     return out
 
 
-Progress = Callable[[str], None]
-
-
 def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solution, list]:
     """Run ``chain`` in order, each backend seeded with the previous ``Solution``.  Every
     backend's ``accepts`` runs before any work; a backend whose lowering needs no seed is

@@ -38,6 +38,7 @@ from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
 from stlc.vehicles import dynamics
+from stlc.vehicles.dynamics import substeps
 from stlc.semantics import ir, model, nnf
 from stlc.semantics.timegrid import TimeGrid
 
@@ -50,14 +51,6 @@ PLAN_MARGIN = 1e-3
 FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
 FIX_WINDOWS = os.environ.get("STLC_FIX_WINDOWS", "1") == "1"  # and of every ``eventually``
 FEASIBLE_DEFECT = 1e-6  # max dynamics defect of an iterate accepted as a plan
-
-MAX_SUBSTEP = 0.1  # s: integrator sub-steps per interval are at most this long
-
-
-def substeps(dt: float) -> int:
-    """RK4 sub-steps per interval: a coarse grid (e.g. 0.5 s in tests) is integrated as
-    accurately as the 0.1 s grid of the papers (one RK4 step per 0.5 s was off by 3-4 cm)."""
-    return max(1, int(np.ceil(dt / MAX_SUBSTEP - 1e-9)))
 
 
 def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") -> float:

@@ -30,8 +30,9 @@ import numpy as np
 from stlc.analysis import monitor
 from stlc.planning.solution import Solution
 from stlc.planning.problem import from_mission
+from stlc.backends.segment import SegmentBackend
 from stlc.replan.disturb import simulate_disturbances
-from stlc.replan.segment import kept_clauses
+from stlc.planning.kept import kept_clauses
 from stlc.semantics import model
 
 
@@ -156,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     results, events, builds = [], [], []
     c0, w0 = time.process_time(), time.perf_counter()
     for i, d in enumerate(pushes):
-        r = simulate_disturbances(problem, plan, [d], cfg)
+        r = simulate_disturbances(problem, plan, [d], cfg, segment=SegmentBackend)
         results.append(r)
         for e in r.triggered:
             events.append(e)
@@ -173,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     print("\ntwo-disturbance demo (paper A Fig. 12): pushes of 1.1 m at 3 s (+y) and "
           "9 s (+x−y)")
     print(HEADER)
-    r = simulate_disturbances(problem, plan, demo, cfg)
+    r = simulate_disturbances(problem, plan, demo, cfg, segment=SegmentBackend)
     for e in r.triggered:
         print(_row("demo", e))
     for line in summary(r.triggered, [r], cfg.compute_budget):

@@ -17,8 +17,6 @@ from stlc.output.solution import solution_json, trajectory_csv
 from stlc.planning.solution import Solution
 from stlc.semantics import model
 
-EXIT_OK, EXIT_UNSAT = 0, 3
-
 
 # ---------------------------------------------------------------- outputs
 

@@ -34,6 +34,7 @@ class SpecResult:
     tightest_time: float | None = None  # time of the sample whose predicate binds
     binding_predicate: str = ""  # label of the predicate that decides the robustness
     line: int = 0  # source line of the spec definition
+    binding_line: int = 0  # source line of that predicate (from its span; 0 if unknown)
 
 
 @dataclass

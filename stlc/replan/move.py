@@ -10,15 +10,13 @@ level, so κ decides: if the plan still meets κ it is kept and flown.  Otherwis
 the same parametric NLP (``nlp_cache``: the new pose is a parameter value, nothing is
 rebuilt) with every sample up to the event fixed to what was flown, warm-started from the
 current plan — or from the nearest plan of ``library`` (a sweep's ``plans/`` directory:
-``--library DIR``) — and the whole λ/energy schedule.  The new plan is flown when its
+``--library DIR``) — and the whole λ/energy schedule (``backends.move_replan``, handed in
+by the pipeline).  The new plan is flown when its
 exact robustness at the new pose is ≥ κ; the record says what the decision was made on.
 """
 
 from __future__ import annotations
 
-import csv
-import os
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,29 +45,6 @@ def moved_program(program, move: Move):
     return apply_values(program, sets)
 
 
-def _library_plans(directory: str) -> list[tuple[dict[str, float], dict[str, np.ndarray]]]:
-    """(values, channels) of every plan of a sweep directory (sweep.csv + plans/<i>.csv)."""
-    out = []
-    try:
-        with open(os.path.join(directory, "sweep.csv"), newline="") as fh:
-            rows = list(csv.DictReader(fh))
-    except OSError:
-        return out
-    fixed = {"instance", "status", "robustness", "iterations", "solve_s", "total_s", "worker",
-             "error"}
-    for r in rows:
-        p = os.path.join(directory, "plans", f"{r['instance']}.csv")
-        if r["status"] != "satisfied" or not os.path.isfile(p):
-            continue
-        with open(p) as fh:
-            header = fh.readline().strip().split(",")
-        data = np.atleast_2d(np.loadtxt(p, delimiter=",", skiprows=1))
-        ch = {h: data[:, i] for i, h in enumerate(header)}
-        vals = {k: float(v) for k, v in r.items() if k not in fixed and not k.startswith("spec.")}
-        out.append((vals, ch))
-    return out
-
-
 def _risk(program, mission, channels, times) -> dict | None:
     """VaR/CVaR of the plan at the (moved) pose under the mission's risk cases."""
     if mission.risk is None:
@@ -92,11 +67,11 @@ def _risk_ok(risk: dict | None) -> bool | None:
     return all(v >= 0 for v in vals) if vals else None
 
 
-def simulate_move(problem, sol, move: Move, library: str | None = None) -> SimulationResult:
+def simulate_move(problem, sol, move: Move, library: str | None = None, *,
+                  replanner) -> SimulationResult:
+    """``replanner(program, mission, grid, flown, k_e, library, pose) -> (channels, info)``
+    plans the rest of the mission (the pipeline passes ``backends.move_replan.replan_rest``)."""
     from stlc.analysis import monitor
-    from stlc.backends import nlp_cache, schedule
-    from stlc.backends.casadi_backend import channels_with_derived
-    from stlc.backends.library import PlanLibrary, warm_start
 
     m, grid = problem.mission, problem.grid
     kappa = problem.threshold
@@ -117,48 +92,19 @@ def simulate_move(problem, sol, move: Move, library: str | None = None) -> Simul
     ev = ReplanEvent(move.time, vehicle, 0.0, replan, kind="move", detail=detail)
     executed = dict(sol.channels)
     if replan:
-        integrator = str(m.options.get("integrator", "rk4"))
-        prob, inv, built = nlp_cache.lowered(program, m, grid, integrator)
-        lbx, ubx = prob.lbx.copy(), prob.ubx.copy()
-        try:
-            seed_ch, source = sol.channels, "current plan"
-            if library:
-                lib = PlanLibrary()
-                for vals, ch in _library_plans(library):
-                    lib.add(vals, ch, "library")
-                near = lib.nearest({f"{move.human}.{f}.{a}": v[i]
-                                    for f, v in (("pos", move.pos), ("att", move.att))
-                                    if v is not None for i, a in enumerate("xyz")})
-                if near is not None:
-                    seed_ch, source = near[0], f"library {library} (distance {near[2]:.3g})"
-            w_now = warm_start(prob, inv, sol.channels, program.params, m.smoothing.lam)
-            for L in inv.layouts:  # what was flown up to the event is fixed
-                xs = slice(L.x_slice.start, L.x_slice.start + L.nx * (k_e + 1))
-                us = slice(L.u_slice.start, L.u_slice.start + L.nu * k_e)
-                prob.lbx[xs] = prob.ubx[xs] = w_now[xs]
-                prob.lbx[us] = prob.ubx[us] = w_now[us]
-            w0 = warm_start(prob, inv, seed_ch, program.params, m.smoothing.lam)
-            for L in inv.layouts:
-                xs = slice(L.x_slice.start, L.x_slice.start + L.nx * (k_e + 1))
-                us = slice(L.u_slice.start, L.u_slice.start + L.nu * k_e)
-                w0[xs], w0[us] = w_now[xs], w_now[us]
-            t0 = time.perf_counter()
-            raw = schedule.solve_mission(program, m, prob, inv, w0)
-            ev.solve_s = time.perf_counter() - t0
-        finally:
-            prob.lbx[:], prob.ubx[:] = lbx, ubx
-        new = channels_with_derived(inv, raw.w)
+        pose = {f"{move.human}.{f}.{a}": v[i] for f, v in (("pos", move.pos), ("att", move.att))
+                if v is not None for i, a in enumerate("xyz")}
+        new, info = replanner(program, m, grid, sol.channels, k_e, library, pose)
+        ev.solve_s = info["solve_s"]
         after = float(monitor.robustness(problem.requirement, dt, new, program.params))
-        last = raw.stages[-1]
-        ev.status = str(last.status)
+        ev.status = info["status"]
         ev.accepted = after >= kappa
         ev.within_budget = None
         ev.segment = (float(times[k_e]), float(times[-1]))
         ev.kept = {"mission": after}
         ev.times, ev.channels = times[k_e:], {k: v[k_e:] for k, v in new.items()}
-        detail.update({"warm_start": source, "nlp_built": built,
-                       "iterations": sum(s.iterations for s in raw.stages),
-                       "robustness_replanned": after})
+        detail.update({"warm_start": info["warm_start"], "nlp_built": info["built"],
+                       "iterations": info["iterations"], "robustness_replanned": after})
         if ev.accepted:
             executed = new
     rob = {"mission": float(monitor.robustness(problem.requirement, dt, executed,

@@ -47,7 +47,7 @@ def windows(mission: Mission, sol: Solution, formulas: dict[str, ir.Formula]) ->
         for name, f in formulas.items():
             while isinstance(f, ir.And) and len(f.args) == 1:
                 f = f.args[0]
-            if isinstance(f, ir.Always | ir.Eventually | ir.Until | ir.Release):
+            if isinstance(f, ir.WINDOWED):
                 out.append({"spec": name, "start": num(f.lo),
                             "end": num(min(f.hi, mission.horizon))})
     colors: dict[str, str] = {}

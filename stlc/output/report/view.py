@@ -30,7 +30,7 @@ from stlc.semantics.model import Mission, Objective, Program
 from stlc.vehicles import model_of
 
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
-from .predicates import predicate_line, readable
+from .predicates import readable
 from .replan_view import replan
 from .risk_view import risk
 from .scene import scene
@@ -212,11 +212,10 @@ def _spec_line(program: Program, mission: Mission, name: str, given: int) -> tup
 def _spec_rows(program: Program, mission: Mission, sol: Solution,
                wins: list[dict]) -> list[dict]:
     n_lines = len(program.source.splitlines())
-    formulas = spec_formulas(program, mission, sol)
     rows = []
     for name, r in sol.specs.items():
         line, end_line = _spec_line(program, mission, name, r.line)
-        pline = predicate_line(formulas.get(name), r.binding_predicate)
+        pline = r.binding_line
         win = [w for w in wins if w["spec"] == name]
         rows.append({
             "name": name,

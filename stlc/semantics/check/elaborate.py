@@ -47,8 +47,6 @@ from stlc.vehicles import model_of
 
 BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None),
                   "g0": (9.81, units.ACCEL)}
-FUNCTIONS = ("abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2", "angdiff",
-             "dot", "dist", "box", "diag", "normal", "hexarotor", "quadrotor")
 AXIS_NAMES = {"x": 0, "y": 1, "z": 2, "roll": 0, "pitch": 1, "yaw": 2}
 
 
