@@ -61,6 +61,7 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("files", nargs="+", metavar="FILE")
     c.add_argument("--format", choices=("text", "json"), default="text")
     c.add_argument("--deny-warnings", action="store_true", help="warnings are errors")
+    _set_option(c)
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE")
@@ -70,6 +71,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="interpolate a log with a non-uniform time column onto steps of DT s")
     m.add_argument("--fail-on-violation", action="store_true",
                    help="exit 3 when a spec is violated (or undefined)")
+    _set_option(m)
 
     k = sub.add_parser("compile", help="plan a trajectory for each mission and write a report")
     k.add_argument("file", metavar="FILE")
@@ -85,6 +87,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="stop planning after SECONDS and write the best verified plan")
     k.add_argument("--deny-warnings", action="store_true", help="warnings are errors "
                    "(exit 1 before planning; a plan's own warnings: exit 3)")
+    _set_option(k)
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -102,6 +105,12 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="stop planning the nominal plan after SECONDS (best verified plan)")
     _budget_option(s)
+    s.add_argument("--move", metavar="HUMAN@T:X,Y,Z[:YAW]", type=_move, default=None,
+                   help="the human moves to (X, Y, Z) m [turned to YAW deg] at T s: keep the "
+                   "plan or replan the rest (paper A §6)")
+    s.add_argument("--library", metavar="DIR", default=None,
+                   help="warm-start a replan from the nearest plan of a sweep's DIR")
+    _set_option(s)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
@@ -109,6 +118,29 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--mission", metavar="NAME", default=None)
     r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
     _budget_option(r)
+    _set_option(r)
+    rg = r.add_mutually_exclusive_group()
+    rg.add_argument("--workers", metavar="K", type=int, default=None,
+                    help="evaluate the realisations in batches on a local Dask cluster")
+    rg.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                    help="... or on an existing Dask cluster")
+
+    w = sub.add_parser("sweep", help="plan one mission over a grid of --set values, on Dask")
+    w.add_argument("file", metavar="FILE")
+    w.add_argument("--mission", metavar="NAME", default=None)
+    w.add_argument("--vary", metavar="NAME=LO:HI:N", action="append", default=[],
+                   help="an axis: N values from LO to HI (units as in the language)")
+    w.add_argument("--random", metavar="N", type=int, default=None,
+                   help="N uniform draws from the box of the --vary axes instead of a grid")
+    w.add_argument("--seed", type=int, default=0)
+    _set_option(w)
+    g = w.add_mutually_exclusive_group()
+    g.add_argument("--workers", metavar="K", type=int, default=None,
+                   help="local cluster of K worker processes (default: the cores)")
+    g.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="an existing Dask cluster, e.g. tcp://host:8786")
+    w.add_argument("-o", "--out", metavar="DIR", default=None)
+    w.add_argument("-q", "--quiet", action="store_true")
 
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
@@ -136,6 +168,12 @@ def _size(text: str) -> int:
         return parse_size(text)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _set_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", metavar="NAME=VALUE", action="append", default=[], dest="sets",
+                   help="give a const, a human's pose field (operator.pos.x) or a vehicle's "
+                   "start (uav1.start.pos.y) another value, with its unit (repeatable)")
 
 
 def _number(text: str, what: str) -> float:
@@ -169,6 +207,20 @@ def _disturbance(text: str):
     return Disturbance(drone, _number(t, "time"), d)  # type: ignore[arg-type]
 
 
+def _move(text: str):
+    from stlc.replan.move import Move
+
+    human, sep, rest = text.partition("@")
+    parts = rest.split(":")
+    xyz = parts[1].split(",") if len(parts) in (2, 3) else []
+    if not sep or not human or len(xyz) != 3:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected HUMAN@T:X,Y,Z[:YAW], e.g. "
+                                         "operator@8:0.3,0.2,0:20 (s, m, deg)")
+    yaw = math.radians(_number(parts[2], "yaw")) if len(parts) == 3 else None
+    return Move(human, _number(parts[0], "time"), tuple(_number(x, "position") for x in xyz),
+                None if yaw is None else (0.0, 0.0, yaw))
+
+
 def _failure(text: str) -> tuple[str, float]:
     drone, sep, t = text.partition("@")
     if not sep or not drone:
@@ -192,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
     limits.set_max_memory(getattr(args, "max_memory", None))
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
-           "fmt": cmd_fmt, "explain": cmd_explain}[args.cmd]
+           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep}[args.cmd]
     if threading.current_thread() is threading.main_thread():
         interrupt.on_termination()  # SIGTERM/SIGHUP: Ctrl-C's contract, exit 143/129
     try:
@@ -247,7 +299,7 @@ def cmd_check(args) -> int:
 
     from dataclasses import replace
 
-    diags, sources = check_paths(args.files)
+    diags, sources = check_paths(args.files, args.sets)
     if args.deny_warnings:
         diags = [replace(d, severity="error") for d in diags]
     errors = [d for d in diags if d.severity == "error"]
@@ -267,7 +319,7 @@ def cmd_monitor(args) -> int:
     from stlc.diagnostics import emit_warnings
     from stlc.pipeline import load, monitor_trace, monitored_formulas
 
-    loaded = load(args.file)
+    loaded = load(args.file, args.sets)
     program = loaded.program
     trace = read_trace(args.trace, resample=args.resample)
     res = monitor_trace(program, trace)
@@ -303,7 +355,8 @@ def cmd_compile(args) -> int:
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
                         risk=not args.no_risk, time_limit=args.time_limit, started=_STARTED,
-                        deny_warnings=args.deny_warnings, backend=args.backend)
+                        deny_warnings=args.deny_warnings, backend=args.backend,
+                        sets=args.sets)
 
 
 def cmd_simulate(args) -> int:
@@ -313,13 +366,32 @@ def cmd_simulate(args) -> int:
     fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None
     return simulate_file(args.file, out=args.out, mission=args.mission,
                          disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
-                         time_limit=args.time_limit)
+                         time_limit=args.time_limit, sets=args.sets,
+                         moves=[args.move] if args.move else None, library=args.library)
 
 
 def cmd_risk(args) -> int:
     from stlc.pipeline import risk_file
 
-    return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out)
+    if args.workers is None and args.scheduler is None:
+        return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
+                         sets=args.sets)
+    from stlc.analysis.risk_parallel import distributed
+    from stlc.sweep.run import _client, _close
+
+    client, cluster = _client(args.workers, args.scheduler, args.file)
+    try:
+        return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
+                         sets=args.sets, shared=distributed(client))
+    finally:
+        _close(client, cluster)
+
+
+def cmd_sweep(args) -> int:
+    from stlc.sweep.run import sweep
+
+    return sweep(args.file, args.mission, args.vary, args.sets, args.out, args.workers,
+                 args.scheduler, args.random, args.seed, args.quiet)
 
 
 def cmd_bench(args) -> int:

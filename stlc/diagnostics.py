@@ -93,6 +93,7 @@ CODES: dict[str, str] = {
     # output files
     "STL605": "cannot write the output directory",
     "STL606": "problem too large for the resource budget (memory, instances, samples)",
+    "STL607": "cannot connect to the Dask scheduler (`--scheduler`)",
     # warnings (`stlc.semantics.lint`, `stlc.analysis.vacuity`): exit 0 unless --deny-warnings
     "STLW01": "a binary operator's right operand is outside the temporal operator before it",
     "STLW02": "an implication holds only vacuously on the plan",

@@ -31,27 +31,33 @@ class Loaded:
     program: model.Program
     timing: dict[str, float] = field(default_factory=dict)
     warnings: list[Diagnostic] = field(default_factory=list)  # STLWxx (stlc.semantics.lint)
+    values: dict[str, float] = field(default_factory=dict)  # the --set values (SI)
 
 
-def load(path: str) -> Loaded:
-    """Parse and check a file; raises ``StlcError`` with every diagnostic."""
+def load(path: str, sets: list[str] | tuple[str, ...] = ()) -> Loaded:
+    """Parse and check a file; raises ``StlcError`` with every diagnostic.  ``sets`` are
+    ``--set NAME=VALUE`` items, applied to the checked program (``semantics.overrides``)."""
+    from stlc.semantics import overrides
     from stlc.semantics.lint import lint
 
     t0 = time.perf_counter()
     tree = parse_file(path)
     t1 = time.perf_counter()
-    program = check(tree)
+    program, values = overrides.checked(tree, overrides.split(sets)) if sets \
+        else (check(tree), {})
     t2 = time.perf_counter()
-    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1}, lint(tree, program))
+    return Loaded(program, {"parse_s": t1 - t0, "check_s": t2 - t1}, lint(tree, program),
+                  values)
 
 
-def check_paths(paths: list[str]) -> tuple[list[Diagnostic], dict[str, str]]:
+def check_paths(paths: list[str], sets: list[str] | tuple[str, ...] = ()
+                ) -> tuple[list[Diagnostic], dict[str, str]]:
     """Check several files; returns all diagnostics and the sources (for rendering)."""
     diags: list[Diagnostic] = []
     sources: dict[str, str] = {}
     for p in paths:
         try:
-            loaded = load(p)
+            loaded = load(p, sets)
             diags.extend(loaded.warnings)
             sources[p] = loaded.program.source
         except StlcError as e:
@@ -128,17 +134,21 @@ def _check_budget(problem, backends) -> None:
 
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
          step: float | None = None, horizon: float | None = None,
-         backend: str | None = None):
-    """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
+         backend: str | None = None, values: dict[str, float] | None = None,
+         chain: list | None = None):
+    """Plan one mission and verify the plan: returns (PlanningProblem, Solution).  ``values``
+    are the instance's ``--set`` values (recorded on the problem); ``chain`` replaces the
+    chosen backend chain (a sweep's warm start from its plan library)."""
     from stlc.analysis.vacuity import plan_warnings
     from stlc.backends.base import run_chain
-    from stlc.backends.select import chain_record, select
+    from stlc.backends.select import Chain, chain_record, select
     from stlc.planning.fallback import fallback, time_limited
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import verify
 
-    problem = from_mission(program, mission, step=step, horizon=horizon)
-    chain = select(problem, backend, quiet)
+    problem = from_mission(program, mission, step=step, horizon=horizon, values=values)
+    chain = select(problem, backend, quiet) if chain is None else \
+        Chain("library", list(chain), True)
     _check_budget(problem, chain.backends)
     if not quiet:
         print(f"{mission.name}: chain `{chain.name}`"
@@ -209,19 +219,19 @@ def _fallback(problem, first, quiet: bool):
 
 
 def plan_in_time(program: model.Program, mission: model.Mission, *, quiet: bool = True,
-                 backend: str | None = None):
+                 backend: str | None = None, values: dict[str, float] | None = None):
     """``plan`` under the run's time limit: when the watchdog's ``TimeLimitReached`` lands
     outside the backend chain (an import, the problem's construction), the fallback plan
     is verified and returned all the same (``stlc.deadline``)."""
     try:
-        return plan(program, mission, quiet=quiet, backend=backend)
+        return plan(program, mission, quiet=quiet, backend=backend, values=values)
     except deadline.TimeLimitReached:
         from stlc.planning.fallback import fallback, time_limited
         from stlc.planning.problem import from_mission
         from stlc.planning.verify import verify
 
         deadline.caught()
-        problem = from_mission(program, mission)
+        problem = from_mission(program, mission, values=values)
         sol = fallback(problem)
         verify(problem, sol)
         time_limited(sol)
@@ -257,7 +267,7 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
                  quiet: bool = False, risk: bool = True, time_limit: float | None = None,
                  started: float | None = None, deny_warnings: bool = False,
-                 backend: str | None = None) -> int:
+                 backend: str | None = None, sets: list[str] | tuple[str, ...] = ()) -> int:
     """``stlc compile``: every selected mission planned, verified, assessed, written.
     ``time_limit`` (s, from the start of the command; shared by the missions in turn)
     stops the search and writes the best verified plan (``stlc.deadline``); ``backend``
@@ -266,7 +276,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
 
     t0 = time.perf_counter()
     start = time.monotonic() if started is None else started
-    loaded = load(path)
+    loaded = load(path, sets)
     program = loaded.program
     missions = select_missions(path, program, mission)
     emit_warnings(loaded.warnings, deny_warnings, {path: program.source})
@@ -293,7 +303,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                               start=start if time_limit is not None and last else None,
                               overrun=outputs.overrun_writer(program, m, outdirs[m.name], code,
                                                                quiet)):
-            _, sol = plan_in_time(program, m, quiet=quiet, backend=backend)
+            _, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
+                                  values=loaded.values)
             sol.timing.update(loaded.timing)
             if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
                 sol.notes.append("the risk cases were not assessed: the time limit ran out "
@@ -320,7 +331,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
 
 
 def risk_file(path: str, trajectory: str, mission: str | None = None,
-              out: str | None = None) -> int:
+              out: str | None = None, sets: list[str] | tuple[str, ...] = (),
+              shared=None) -> int:
     """``stlc risk``: assess the plan in ``trajectory`` (a ``trajectory.csv``) under the risk
     cases of ``mission``; writes ``risk.json`` and ``risk_samples.npz`` into ``out``
     (default: the trajectory's directory) and prints a table."""
@@ -330,7 +342,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     from stlc.planning.solution import Solution
     from stlc.semantics.specs import mission_specs
 
-    program = load(path).program
+    program = load(path, sets).program
     m = select_mission(path, program, mission)
     trace = read_trace(trajectory)
     needed = set(ir.signals(m.requirement))
@@ -339,7 +351,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     check_signals(trace, needed)
     sol = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, trace.times, trace.channels)
     try:
-        risk_json, results = run_risk(program, m, sol, dt=trace.dt)
+        risk_json, results = run_risk(program, m, sol, dt=trace.dt, shared=shared)
     except (RiskError, SamplingError) as e:
         raise StlcError([Diagnostic("STL209", f"cannot assess the risk cases of `{m.name}`: "
                                     f"{e}", m.span, "check the risk block's distributions")]
@@ -436,7 +448,9 @@ def _replan_defaults(program: model.Program, m: model.Mission, cfg: model.Replan
 
 def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                   disturbances: list | None = None, failures: list | None = None,
-                  quiet: bool = False, time_limit: float | None = None) -> int:
+                  quiet: bool = False, time_limit: float | None = None,
+                  sets: list[str] | tuple[str, ...] = (), moves: list | None = None,
+                  library: str | None = None) -> int:
     """``stlc simulate``: compile the mission, fly it through its events (disturbances with
     event-triggered replanning, or a drone failure with a backup's takeover), verify the
     executed trajectory and write the compile outputs plus ``replan.json`` and
@@ -448,7 +462,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     from stlc.output.simulate import simulation_summary, write_simulation
 
     t0 = time.perf_counter()
-    loaded = load(path)
+    loaded = load(path, sets)
     program = loaded.program
     missions = select_missions(path, program, mission)
     if len(missions) > 1:
@@ -456,7 +470,13 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "which to simulate", Span(path, 1, 1, 1, 2),
                                     "pass --mission " + " | ".join(x.name for x in missions))])
     m = missions[0]
-    dist, fails = simulation_events(path, program, m, disturbances, failures)
+    if moves:  # an operator move (paper A §6): replan.move, not disturbances
+        from stlc.replan.move import check_moves
+
+        check_moves(path, program, m, moves)
+        dist, fails = [], []
+    else:
+        dist, fails = simulation_events(path, program, m, disturbances, failures)
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, mission_span(path, m))
     cfg = _replan_defaults(program, m, m.replan or model.ReplanConfig())
@@ -465,11 +485,17 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     # the time limit bounds planning the nominal plan (replans have their budget t_c)
     with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
                           start=time.monotonic() - (time.perf_counter() - t0)):
-        problem, sol = plan_in_time(program, m, quiet=quiet)
+        problem, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
     try:
-        if fails:
+        if moves:
+            from stlc.backends.move_replan import replan_rest
+            from stlc.replan.move import moved_program, simulate_move
+
+            sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
+            program = moved_program(program, moves[0])
+        elif fails:
             from stlc.backends.backup import BackupPlanner
             from stlc.replan.takeover import simulate_failure
 
@@ -488,7 +514,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "see `stlc simulate` in the README")]) from None
     # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
     # whole mission, judged over the executed team
-    sim.kept = ("mission",) if fails else (tuple(cfg.specs) or ("mission",))
+    sim.kept = ("mission",) if fails or moves else (tuple(cfg.specs) or ("mission",))
     sol.timing["simulate_s"] = time.perf_counter() - t1
     sol.timing["total_s"] = time.perf_counter() - t0
     write_simulation(outdir, program, m, sol, sim)

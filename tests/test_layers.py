@@ -20,6 +20,7 @@ The units, lowest first (``LAYERS``)::
     api        the Python API (``stlc.load``, ``stlc.compile``, ...; the package's
                ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     tools      language tools: fmt, lsp, explain
+    sweep      ``stlc sweep`` on Dask (a client and its workers' tasks)
     bench      benchmarks
     cli        command line
     fuzz, __main__
@@ -48,6 +49,7 @@ LAYERS: list[set[str]] = [
     {"pipeline"},
     {"api"},
     {"tools"},
+    {"sweep"},
     {"bench"},
     {"cli"},
     {"fuzz", "__main__"},

@@ -29,7 +29,7 @@ class Plan(Protocol):
     channels: Mapping[str, np.ndarray]
 
 def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
-             dt: float | None = None):
+             dt: float | None = None, shared=None):
     """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results), or
     (None, None) without a ``risk`` block.  ``dt`` is the plan's sample period (default:
     the mission's step)."""
@@ -43,7 +43,7 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
     results = riskmod.run_cases(cfg, nnf.normalize(mission.requirement), specs,
                                 mission.step if dt is None else dt, sol.channels,
                                 program.params, mission.smoothing.lam,
-                                mission.smoothing.method, base=base)
+                                mission.smoothing.method, base=base, shared=shared)
     return {"mission": mission.name, "cases": [r.to_json() for r in results]}, results
 
 

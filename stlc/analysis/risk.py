@@ -259,7 +259,8 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
                   base: Sequence[Normal] = (), with_smooth: bool = True,
                   support: tuple[float, float] | None = None,
                   robustness_fn: RobustnessFn | None = None,
-                  smooth_fn: RobustnessFn | None = None) -> CaseResult:
+                  smooth_fn: RobustnessFn | None = None,
+                  shared: Callable | None = None) -> CaseResult:
     """Sample the case's distributions (overriding ``base`` ones parameter by parameter),
     evaluate exact (and smooth) robustness of the requirement and every named spec for
     all K realisations and summarise.
@@ -271,7 +272,8 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
     missing one of the two defaults to the ``stlc`` function.  All realisations use
     ``cfg.seed`` (common random numbers across cases, so cases differ only by their
     distributions).  ``support`` bounds the exact ρ for its CVaR bounds (default, and
-    always for the smooth ρ̃: the sample range, see ``cvar_bounds``).
+    always for the smooth ρ̃: the sample range, see ``cvar_bounds``).  ``shared`` replaces
+    ``shared_robustness`` (same signature), e.g. ``risk_parallel``'s batches on Dask.
     """
     K = cfg.K
     dists = merge_distributions(base, case.distributions)
@@ -280,8 +282,8 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
     chans = dict(channels)
     formulas = {"requirement": requirement, **{f"spec:{n}": f for n, f in specs.items()}}
     if robustness_fn is None and smooth_fn is None:
-        exact, smooth = shared_robustness(formulas, dt, chans, params, K, lam, method,
-                                          with_smooth=with_smooth)
+        exact, smooth = (shared or shared_robustness)(formulas, dt, chans, params, K, lam,
+                                                      method, with_smooth=with_smooth)
     else:
         rob = robustness_fn or _default_monitor()
         exact = {k: _per_realisation(rob(f, dt, chans, params), K) for k, f in formulas.items()}

@@ -104,6 +104,7 @@ def seed_paths(seed: Solution, team: tuple[str, ...], n: int
 class _Lowered:
     prob: object  # casadi_nlp.NlpProblem
     inv: object  # casadi_nlp.InverseData
+    build_s: float = 0.0  # 0 when the build was reused (nlp_cache)
 
 
 class CasadiNlp(Backend):
@@ -123,37 +124,46 @@ class CasadiNlp(Backend):
 
         mission, grid = problem.mission, problem.grid
         integrator = str(mission.options.get("integrator", "rk4"))
-        try:
-            prob, inv = casadi_nlp.build(problem.program, mission, grid, integrator,
-                                         quiet=self.quiet)
+        from stlc.backends import nlp_cache
+
+        try:  # one build per structure: the instance's values are bound (nlp_cache)
+            prob, inv, built = nlp_cache.lowered(problem.program, mission, grid, integrator,
+                                                 quiet=self.quiet)
         except LoweringError as e:
             raise StlcError([Diagnostic("STL401", f"cannot plan mission `{mission.name}`: "
                                         f"{e}", mission.span)]) from None
         if not self.quiet:
+            how = f"built in {prob.build_s:.2f} s" if built else "reused"
             print(f"{mission.name}: {grid.n} samples, {prob.n_vars} variables, {prob.n_cons} "
-                  f"constraints (built in {prob.build_s:.2f} s)", file=sys.stderr)
-        return _Lowered(prob, inv), inv
+                  f"constraints ({how})", file=sys.stderr)
+        return _Lowered(prob, inv, prob.build_s if built else 0.0), inv
 
     def solve(self, lowered: _Lowered, problem: PlanningProblem):
         from stlc.backends import schedule
 
         if problem.seed is None:
             raise ValueError("the CasADi NLP needs a seed (run KinematicGuess first)")
+        from stlc.backends import library
+
         t0 = time.perf_counter()
-        kin = seed_paths(problem.seed, problem.team, problem.grid.n)
-        w0 = schedule.full_guess(problem.program, lowered.prob, lowered.inv, kin,
-                                 problem.smoothing.lam)
+        if library.is_library_seed(problem.seed):  # warm start from a solved instance
+            w0 = library.warm_start(lowered.prob, lowered.inv, problem.seed.channels,
+                                    problem.params, problem.smoothing.lam)
+        else:
+            kin = seed_paths(problem.seed, problem.team, problem.grid.n)
+            w0 = schedule.full_guess(problem.program, lowered.prob, lowered.inv, kin,
+                                     problem.smoothing.lam)
         guess_s = time.perf_counter() - t0 + problem.seed.timing.get("guess_s", 0.0)
         if not self.quiet:
             print(f"  initial guess: {guess_s:.2f} s", file=sys.stderr)
         raw = schedule.solve_mission(problem.program, problem.mission, lowered.prob,
                                      lowered.inv, w0, self.quiet)
-        return raw, lowered.prob, guess_s
+        return raw, lowered.prob, guess_s, lowered.build_s
 
     def invert(self, raw_all, inv, problem: PlanningProblem) -> Solution:
         from stlc.backends import casadi_nlp
 
-        raw, prob, guess_s = raw_all
+        raw, prob, guess_s, build_s = raw_all
         mission = problem.mission
         ch = channels_with_derived(inv, raw.w)
         lam = raw.lam
@@ -181,7 +191,7 @@ class CasadiNlp(Backend):
                           "constraints": prob.n_cons,
                           "aux": inv.aux_slice.stop - inv.aux_slice.start},
             energy_profile=profile, feasible=feasible)
-        sol.timing.update({"build_s": prob.build_s, "guess_s": guess_s,
+        sol.timing.update({"build_s": build_s, "guess_s": guess_s,
                            "solve_s": sum(s.solve_s for s in raw.stages)})
         seed_t = problem.seed.timing if problem.seed is not None else {}
         sol.timing.update({k: seed_t[k] for k in ("guess_cpu_s", "guess_wait_s") if k in seed_t})

@@ -364,7 +364,9 @@ def _pair_width(a: ir.Expr, b: ir.Expr, params: Mapping[str, float]) -> float | 
     except Exception:  # noqa: BLE001 - anything unevaluable simply has no pair scale
         return None
     w = float(np.ravel(tot)[0])
-    return abs(w) if np.allclose(tot, w, rtol=1e-9, atol=1e-12) and abs(w) > 1e-9 else None
+    # to 12 digits: a box in a human's frame has the same scale for every pose (one build)
+    return float(f"{abs(w):.12g}") if np.allclose(tot, w, rtol=1e-9, atol=1e-12) \
+        and abs(w) > 1e-9 else None
 
 
 def _scales(f: ir.Formula, params: Mapping[str, float], out: dict) -> None:

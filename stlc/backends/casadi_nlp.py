@@ -150,6 +150,7 @@ class InverseData:
     planned: ir.Formula | None = None  # what the NLP optimises: casadi_expr.planner_form
     choice_nodes: list = field(default_factory=list)  # choices.choice_form's disjunctions
     choice_values: dict = field(default_factory=dict)  # their parameter rows (choices.*)
+    params: dict = field(default_factory=dict)  # NLP parameters after the choices, in order
 
 
 @dataclass
@@ -218,8 +219,9 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     for name in choices.signals(nodes) if nodes else []:
         extra.append(ca.SX.sym(name, 1 if name == choices.MIX else n))
         chans[name] = ca.repmat(extra[-1], 1, n) if name == choices.MIX else extra[-1].T
-    p = ca.vertcat(p, *extra)
-    lowered = lower_robustness(fixed, grid, chans, program.params, lam,
+    psyms = {k: ca.SX.sym(k) for k in sorted(ir.params(fixed))}  # e.g. a human's pose
+    p = ca.vertcat(p, *extra, *psyms.values())
+    lowered = lower_robustness(fixed, grid, chans, {**program.params, **psyms}, lam,
                                method=mission.smoothing.method)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
@@ -282,14 +284,14 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
                       time.perf_counter() - t0)
     inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned,
-                      nodes, choices.written(nodes, n) if nodes else {})
+                      nodes, choices.written(nodes, n) if nodes else {},
+                      {k: program.params[k] for k in psyms})
     prob.inv = inv
-    params = dict(program.params)
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
         if n_dyn and np.max(np.abs(gv[:n_dyn])) > FEASIBLE_DEFECT:
             return None
-        return exact_robustness(formula, inv, x, params)
+        return exact_robustness(formula, inv, x, inv.params)
 
     progress.verify = verify
     return prob, inv

@@ -174,6 +174,12 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
     return fill_aux(prob, inv, w, program.params, lam)
 
 
+def param_values(inv: InverseData) -> list[float]:
+    """The NLP parameters after the choice rows: the values of the scenario parameters the
+    formula reads (a human's pose), so that one build serves every value."""
+    return [float(x) for x in inv.params.values()]
+
+
 def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
            label: str, limit: int, patience: int = 10**9, most_robust: bool = True
            ) -> tuple[np.ndarray, dict, float, float]:
@@ -183,7 +189,7 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
-    p = list(p) + choice_params(prob.inv)
+    p = list(p) + choice_params(prob.inv) + param_values(prob.inv)
     progress = prob.progress
     progress.p = np.array(p)
     progress.reset()

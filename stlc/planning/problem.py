@@ -46,6 +46,9 @@ class PlanningProblem:
     start_states: Mapping[str, np.ndarray] = field(default_factory=_frozen)
     fixed_channels: Mapping[str, np.ndarray] = field(default_factory=_frozen)
     window: tuple[float, float] | None = None  # (start, end) s of the part being planned
+    #: the ``--set`` values of this instance (SI, by name as written), already applied to
+    #: ``program`` (its params and vehicle starts are the NLP's parameters: nlp_cache.bind)
+    values: Mapping[str, float] = field(default_factory=_frozen)
     seed: Solution | None = None
 
     @property
@@ -63,7 +66,8 @@ class PlanningProblem:
 
 
 def from_mission(program: model.Program, mission: model.Mission, *,
-                 step: float | None = None, horizon: float | None = None) -> PlanningProblem:
+                 step: float | None = None, horizon: float | None = None,
+                 values: Mapping[str, float] | None = None) -> PlanningProblem:
     """The planning problem of a checked mission (``step``/``horizon`` override the
     mission's, e.g. a reduced horizon in tests)."""
     if step is not None or horizon is not None:
@@ -74,4 +78,4 @@ def from_mission(program: model.Program, mission: model.Mission, *,
         program=program, mission=mission, team=tuple(mission.vehicles), grid=grid,
         requirement=nnf.normalize(mission.requirement),
         specs=_frozen(mission_specs(program, mission)), objective=mission.objective,
-        threshold=mission.threshold, smoothing=mission.smoothing)
+        threshold=mission.threshold, smoothing=mission.smoothing, values=_frozen(values))

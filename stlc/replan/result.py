@@ -49,6 +49,8 @@ class ReplanEvent:
                       else [round(float(s), 6) for s in self.segment],
                       "kept": {k: json_number(v) for k, v in self.kept.items()},
                       **({"detail": self.detail} if self.detail else {})})
+        elif self.detail:  # e.g. an operator move that kept the plan: what it was kept on
+            d["detail"] = self.detail
         return d
 
 

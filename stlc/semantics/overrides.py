@@ -1,0 +1,224 @@
+"""``--set NAME=VALUE``: one instance of a program, changed in its structure, not its text.
+
+Settable names (``settable``):
+
+* a ``const`` (``--set 'T_vr=4 s'``): applied to the *AST* (the declaration's value node is
+  replaced) before checking, since the checker inlines constants everywhere (intervals,
+  bounds); a const may therefore change the structure of the mission;
+* a human's pose field ``H.pos.{x,y,z}`` / ``H.att.{x,y,z}`` (lengths / angles): applied to
+  the checked program — ``Program.params`` (what formulas read as ``Param`` leaves), the
+  ``Human`` itself (the report draws it) and the mean of every declared ``normal(...)``
+  over that field, moved by the same amount (an uncertainty is *about* the nominal pose);
+* a vehicle's start ``V.start.pos.{x,y,z}`` (and ``V.start.att.{x,y,z}`` for a multirotor):
+  applied to the checked vehicle.
+
+VALUE is written as in the language, a number with its unit (``30 deg``, ``-0.2 m``; a
+const declared without a unit takes a plain number).  Problems are diagnostics: an unknown
+name is STL101 with a did-you-mean, a malformed value STL201, a wrong or missing unit
+STL204, the same name twice STL102.  Errors point at the declaration the name refers to
+(or the file's start) and say ``--set NAME``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, replace
+
+from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.frontend import ast
+from stlc.semantics import model
+from stlc.semantics.check import units
+
+_NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)?\s*$")
+_POSE = re.compile(r"([A-Za-z_]\w*)\.(pos|att)\.([xyz])$")
+_START = re.compile(r"([A-Za-z_]\w*)\.start\.(pos|att)\.([xyz])$")
+
+
+@dataclass(frozen=True, slots=True)
+class Setting:
+    """One ``--set``: the name as written, the value text, its SI value, and what it sets
+    (``const`` | ``human`` | ``start``)."""
+
+    name: str
+    text: str
+    value: float
+    kind: str = ""
+
+
+def split(items: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
+    """``NAME=VALUE`` strings → (name, value text); a missing ``=`` is an error later."""
+    return [(a.strip(), b.strip()) if sep else (item.strip(), "")
+            for item in items for a, sep, b in [item.partition("=")]]
+
+
+def _file_span(path: str) -> Span:
+    return Span(path, 1, 1, 1, 2)
+
+
+def _quantity(text: str) -> tuple[float, str | None, units.Dim | None] | str:
+    """(value in SI, unit text, dimension) of ``12.5 deg``, or why it is not one."""
+    m = _NUMBER.fullmatch(text)
+    if not m:
+        return f"`{text}` is not a number with a unit (e.g. `30 deg`, `0.2 m`)"
+    x = float(m.group(1))
+    if not math.isfinite(x):
+        return f"`{text}` is not finite"
+    unit = m.group(2)
+    if not unit:
+        return x, None, None
+    try:
+        scale, dim = units.parse_unit(unit)
+    except units.UnitError as e:
+        return f"unknown unit in `{text}`: {e}"
+    return x * scale, unit, dim
+
+
+def settable(tree: ast.File, program: model.Program) -> dict[str, tuple[str, Span]]:
+    """Every name ``--set`` accepts → (kind, the span of its declaration)."""
+    out: dict[str, tuple[str, Span]] = {}
+    for m in tree.members:
+        if isinstance(m, ast.Named) and m.kind == "const":
+            out[m.name] = ("const", m.name_span)
+    for h in program.scenario.humans:
+        for f in ("pos", "att"):
+            for a in "xyz":
+                out[f"{h.name}.{f}.{a}"] = ("human", h.span)
+    for v in program.vehicles.values():
+        for f in ("pos", "att") if hasattr(v, "start_att") else ("pos",):
+            for a in "xyz":
+                out[f"{v.name}.start.{f}.{a}"] = ("start", v.span)
+    return out
+
+
+def resolve(path: str, tree: ast.File, program: model.Program, const_dims: dict,
+            items: list[tuple[str, str]]) -> list[Setting]:
+    """Check every (name, value text) against the program; raise ``StlcError`` with all
+    problems.  ``const_dims``: each const's dimension (None for a plain number)."""
+    names = settable(tree, program)
+    diags: list[Diagnostic] = []
+    out: list[Setting] = []
+    seen: set[str] = set()
+    for name, text in items:
+        kind, span = names.get(name, ("", _file_span(path)))
+        where = span if span.known else _file_span(path)
+        if not kind:
+            hint = did_you_mean(name, names) or ("settable: " + ", ".join(list(names)[:8])
+                                                 + (", ..." if len(names) > 8 else "")
+                                                 if names else "this file has nothing to set")
+            why = ""
+            m = _START.match(name) or _POSE.match(name)
+            if m and m.group(1) in program.vehicles and m.group(2) == "att":
+                why = " (a point mass has no attitude)"
+            diags.append(Diagnostic("STL101", f"--set {name}: no constant, human pose field or "
+                                    f"vehicle start called `{name}`{why}", where, hint))
+            continue
+        if name in seen:
+            diags.append(Diagnostic("STL102", f"--set {name} is given twice", where,
+                                    "give each name once"))
+            continue
+        seen.add(name)
+        q = _quantity(text)
+        if isinstance(q, str):
+            diags.append(Diagnostic("STL201", f"--set {name}: {q}", where,
+                                    f"write it as in the language: `--set '{name}=VALUE UNIT'`"))
+            continue
+        value, unit, dim = q
+        want = const_dims.get(name) if kind == "const" else (
+            units.ANGLE if ".att." in name else units.LENGTH)
+        if dim != want:
+            got = "no unit" if dim is None else units.describe(dim)
+            need = "a plain number" if want is None else units.describe(want)
+            diags.append(Diagnostic("STL204", f"--set {name}: expected {need}, found {got}",
+                                    where, f"e.g. `--set '{name}=1 {units.example_unit(want)}'`"
+                                    if want is not None else f"e.g. `--set '{name}=1'`"))
+            continue
+        out.append(Setting(name, text, value, kind))
+    if diags:
+        raise StlcError(diags)
+    return out
+
+
+def apply_consts(tree: ast.File, settings: list[Setting]) -> ast.File:
+    """The AST with each set const's value node replaced (same spans: diagnostics about
+    the new value point at the declaration)."""
+    consts = {s.name: s for s in settings if s.kind == "const"}
+    if not consts:
+        return tree
+    members = []
+    for m in tree.members:
+        s = consts.get(m.name) if isinstance(m, ast.Named) and m.kind == "const" else None
+        if s is not None:
+            q = _quantity(s.text)
+            assert not isinstance(q, str)
+            _, unit, _ = q
+            num_text = _NUMBER.fullmatch(s.text).group(1)  # type: ignore[union-attr]
+            num = ast.Number(float(num_text), num_text, m.value.span)
+            m = replace(m, value=ast.Quantity(num, unit, m.value.span) if unit else num)
+        members.append(m)
+    return replace(tree, members=tuple(members))
+
+
+def _moved(d: model.Normal, delta: dict[str, float]) -> model.Normal:
+    if not any(p in delta for p in d.params):
+        return d
+    return replace(d, mean=tuple(mu + delta.get(p, 0.0) for p, mu in zip(d.params, d.mean)))
+
+
+def apply_values(program: model.Program, settings: list[Setting]) -> model.Program:
+    """The checked program with the human poses and vehicle starts of ``settings``."""
+    poses = {s.name: s.value for s in settings if s.kind == "human"}
+    starts = {s.name: s.value for s in settings if s.kind == "start"}
+    if not poses and not starts:
+        return program
+    delta = {k: v - program.params[k] for k, v in poses.items()}
+    params = {**program.params, **poses}
+    humans = []
+    for h in program.scenario.humans:
+        pos = tuple(params[f"{h.name}.pos.{a}"] for a in "xyz")
+        att = tuple(params[f"{h.name}.att.{a}"] for a in "xyz")
+        humans.append(replace(h, pos=pos, att=att,
+                              uncertain=tuple(_moved(d, delta) for d in h.uncertain)))
+    vehicles = dict(program.vehicles)
+    for name, v in program.vehicles.items():
+        new = {}
+        for f in ("pos", "att"):
+            key = f"{name}.start.{f}."
+            if any(k.startswith(key) for k in starts):
+                old = getattr(v, f"start_{f}")
+                new[f"start_{f}"] = tuple(starts.get(key + a, old[i])
+                                          for i, a in enumerate("xyz"))
+        if new:
+            vehicles[name] = replace(v, **new)
+    missions = {}
+    for name, m in program.missions.items():
+        if m.risk is not None and delta:
+            cases = tuple(replace(c, distributions=tuple(_moved(d, delta)
+                                                         for d in c.distributions))
+                          for c in m.risk.cases)
+            m = replace(m, risk=replace(m.risk, cases=cases))
+        missions[name] = m
+    return replace(program, params=params, vehicles=vehicles, missions=missions,
+                   scenario=replace(program.scenario, humans=tuple(humans)))
+
+
+def checked(tree: ast.File, items: list[tuple[str, str]] | None = None
+            ) -> tuple[model.Program, dict[str, float]]:
+    """Check ``tree`` and apply the ``--set`` items: the instance's checked program and the
+    values set (SI, by name)."""
+    from stlc.semantics.check import check
+    from stlc.semantics.check.program import Checker
+    from stlc.semantics.check.values import Num
+
+    if not items:
+        return check(tree), {}
+    ck = Checker(tree)
+    try:
+        program = ck.run()
+    except RecursionError:
+        program = check(tree)  # reports STL004 as ``check`` does
+    dims = {n: v.dim for n, v in ck.globals.names.items() if isinstance(v, Num)}
+    settings = resolve(tree.path, tree, program, dims, items)
+    if any(s.kind == "const" for s in settings):
+        program = check(apply_consts(tree, settings))
+    return apply_values(program, settings), {s.name: s.value for s in settings}

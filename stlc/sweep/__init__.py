@@ -1,0 +1,12 @@
+"""``stlc sweep``: one mission over a grid (or a random sample) of ``--set`` values, on
+Dask distributed (a ``LocalCluster`` by default, an existing cluster by address).
+
+* ``axes``   — ``--vary NAME=LO:HI:N`` and ``--random N``: the instances, validated against
+  the file before anything starts (the same diagnostics as ``--set``);
+* ``task``   — what a worker runs for one instance (source text, mission, values in; a row
+  and the plan out); the worker process keeps its built NLP and its plan library between
+  tasks (``stlc.backends.nlp_cache``, ``stlc.backends.library``);
+* ``run``    — the client: submit, progress bar, Ctrl-C, outputs under the output-directory
+  contract;
+* ``report`` — ``sweep.html``.
+"""

@@ -1,0 +1,282 @@
+"""``stlc sweep``: the client side.  Validate, start (or connect to) a Dask cluster, submit
+one task per instance, show progress, collect rows, write the outputs.
+
+Outputs (DIR, default ``reports/<mission>-sweep``): ``sweep.csv``, ``plans/<i>.csv``,
+``sweep.json``, ``sweep.html``.  They are written into a private staging directory and
+moved into place under the directory lock at the end — also after Ctrl-C (rows for the
+instances that finished; the rest cancelled) — so DIR never holds a half-written file, and
+stlc removes only its own files of an earlier sweep (``plans/<digits>.csv``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import logging
+import math
+import os
+import re
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from stlc import interrupt
+from stlc.diagnostics import Diagnostic, Span, StlcError
+from stlc.sweep import axes as axes_mod
+
+OWNED = ("sweep.csv", "sweep.json", "sweep.html")
+_PLAN = re.compile(r"\d+\.csv")
+
+
+def _progress(done: int, total: int, sat: int, t0: float, quiet: bool) -> None:
+    if quiet:
+        return
+    el = time.perf_counter() - t0
+    eta = el / done * (total - done) if done else float("nan")
+    w = 30
+    bar = "#" * (w * done // max(total, 1))
+    eta_s = f"{eta:5.0f} s" if math.isfinite(eta) else "    ? s"
+    print(f"\r[{bar:<{w}}] {done}/{total}  ETA {eta_s}  satisfied {sat}", end="",
+          file=sys.stderr, flush=True)
+
+
+def _client(workers: int | None, scheduler: str | None, path: str):
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError) as e:
+            raise StlcError([Diagnostic("STL607", f"cannot connect to the Dask scheduler "
+                                        f"`{scheduler}`: {e}", Span(path, 1, 1, 1, 2),
+                                        "start one with `dask scheduler` and `dask worker "
+                                        "ADDRESS`, or drop --scheduler for a local cluster")]
+                            ) from None
+    k = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=logging.ERROR,
+                           env={"OMP_NUM_THREADS": "1", "STLC_NO_FORK": "1"})
+    return Client(cluster), cluster
+
+
+def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | None,
+          workers: int | None = None, scheduler: str | None = None,
+          random: int | None = None, seed: int = 0, quiet: bool = False) -> int:
+    from stlc.frontend.syntax import parse_file
+    from stlc.output.directory import preflight
+    from stlc.pipeline import select_missions
+    from stlc.semantics import overrides
+
+    t0 = time.perf_counter()
+    tree = parse_file(path)
+    source = tree.source
+    axes = [axes_mod.parse_axis(path, v) for v in vary]
+    if not axes:
+        raise StlcError([Diagnostic("STL104", "nothing to sweep: give --vary NAME=LO:HI:N",
+                                    Span(path, 1, 1, 1, 2),
+                                    "e.g. --vary 'operator.att.z=-30 deg:30 deg:6'")])
+    fixed = overrides.split(sets)
+    names = [a.name for a in axes]
+    clash = [n for n, _ in fixed if n in names] + [n for i, n in enumerate(names)
+                                                   if n in names[:i]]
+    if clash:
+        raise StlcError([Diagnostic("STL102", f"`{clash[0]}` is both varied and set (or "
+                                    "varied twice)", Span(path, 1, 1, 1, 2),
+                                    "give each name once")])
+    insts = axes_mod.instances(axes, random, seed)
+    # validate both corners before any worker starts: unknown names, units, consts
+    for corner in (insts[0], insts[-1]):
+        program, _ = overrides.checked(tree, fixed + [(n, t) for n, _, t in corner])
+        ms = select_missions(path, program, mission)
+        if len(ms) > 1:
+            raise StlcError([Diagnostic("STL104", f"{path} has {len(ms)} missions: say which "
+                                        "to sweep", Span(path, 1, 1, 1, 2), "pass --mission "
+                                        + " | ".join(x.name for x in ms))])
+        m = ms[0]
+    outdir = out if out is not None else os.path.join("reports", f"{m.name}-sweep")
+    preflight(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2))
+    os.makedirs(outdir, exist_ok=True)
+    stage = tempfile.mkdtemp(prefix=".stlc-stage-", dir=outdir)
+    os.makedirs(os.path.join(stage, "plans"))
+    rows: dict[int, dict] = {}
+    client = cluster = None
+    interrupted = False
+    try:
+        from stlc.sweep.task import run_instance
+
+        client, cluster = _client(workers, scheduler, path)
+        futs = {}
+        for i, inst in enumerate(insts):
+            items = fixed + [(n, t) for n, _, t in inst]
+            futs[client.submit(run_instance, source, path, m.name, items,
+                               {n: v for n, v, _ in inst}, i, pure=False, retries=1)] = i
+        pending = set(futs)
+        sat = 0
+        _progress(0, len(insts), 0, t0, quiet)
+        while pending:
+            done = [f for f in pending if f.done()]
+            for f in done:
+                pending.discard(f)
+                i = futs[f]
+                try:
+                    row = f.result()
+                except Exception as e:  # noqa: BLE001 - a worker that kept dying, etc.
+                    row = {"instance": i, "values": {n: v for n, v, _ in insts[i]},
+                           "status": "failed", "error": f"{type(e).__name__}: {e}",
+                           "robustness": float("nan"), "specs": {}, "iterations": 0,
+                           "solve_s": 0.0, "total_s": 0.0, "worker": "", "built": False}
+                plan = row.pop("plan_csv", None)
+                if plan is not None:
+                    with open(os.path.join(stage, "plans", f"{i}.csv"), "w") as fh:
+                        fh.write(plan)
+                rows[i] = row
+                sat += row["status"] == "satisfied"
+                _progress(len(rows), len(insts), sat, t0, quiet)
+            if pending:
+                interrupt.check()
+                time.sleep(0.05)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        if not quiet:
+            print(file=sys.stderr)
+    wall = time.perf_counter() - t0
+    with interrupt.deferred():
+        try:
+            if client is not None and interrupted:
+                client.cancel(list(futs))
+            summary = _write(stage, outdir, path, m.name, axes, insts, rows, wall, fixed,
+                             workers, scheduler, interrupted, random, seed)
+        finally:
+            _cleanup(stage)
+    _close(client, cluster)
+    if interrupted:
+        raise KeyboardInterrupt
+    if not quiet:
+        print(_summary_text(summary, outdir), file=sys.stderr)
+    return 0 if summary["counts"].get("satisfied", 0) == len(insts) else 3
+
+
+def _close(client, cluster) -> None:
+    with contextlib.suppress(Exception):
+        if client is not None:
+            client.close(timeout=5)
+    with contextlib.suppress(Exception):
+        if cluster is not None:
+            cluster.close(timeout=5)
+
+
+def _cleanup(stage: str) -> None:
+    for sub in ("plans", ""):
+        d = os.path.join(stage, sub)
+        with contextlib.suppress(OSError):
+            for n in os.listdir(d):
+                with contextlib.suppress(OSError):
+                    os.unlink(os.path.join(d, n))
+            os.rmdir(d)
+
+
+def quantiles(x: list[float]) -> dict:
+    if not x:
+        return {}
+    a = np.asarray(x, float)
+    return {"min": float(a.min()), "p50": float(np.quantile(a, 0.5)),
+            "p90": float(np.quantile(a, 0.9)), "p95": float(np.quantile(a, 0.95)),
+            "max": float(a.max()), "mean": float(a.mean())}
+
+
+def _csv(axes, rows: list[dict], spec_names: list[str]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["instance", *[a.name for a in axes], "status", "robustness",
+                *[f"spec.{s}" for s in spec_names], "iterations", "solve_s", "total_s",
+                "worker", "error"])
+    for r in rows:
+        w.writerow([r["instance"], *[repr(r["values"][a.name]) for a in axes], r["status"],
+                    repr(r["robustness"]), *[repr(r["specs"].get(s, float("nan")))
+                                             for s in spec_names],
+                    r["iterations"], f"{r['solve_s']:.4f}", f"{r['total_s']:.4f}", r["worker"],
+                    r.get("error", "")])
+    return buf.getvalue()
+
+
+def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, workers,
+           scheduler, interrupted, random=None, seed=0) -> dict:
+    from stlc.output.directory import _locked
+    from stlc.strictjson import strict
+    from stlc.sweep.report import render
+
+    rows = [rows_by_i[i] for i in sorted(rows_by_i)]
+    spec_names = sorted({s for r in rows for s in r["specs"]})
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    if interrupted:
+        counts["cancelled"] = len(insts) - len(rows)
+    ok = [r for r in rows if r["status"] != "failed"]
+    per_worker: dict[str, int] = {}
+    for r in rows:
+        per_worker[r["worker"]] = per_worker.get(r["worker"], 0) + 1
+    summary = {
+        "file": path, "mission": mission, "instances": len(insts), "finished": len(rows),
+        "interrupted": interrupted, "counts": counts,
+        "varied": [{"name": a.name, "lo": a.lo * a.scale, "hi": a.hi * a.scale, "n": a.n}
+                   for a in axes], "set": {n: t for n, t in fixed},
+        "wall_s": wall, "per_instance_s": wall / max(len(rows), 1),
+        "nlp_builds": sum(1 for r in rows if r.get("built")),
+        "warm_started": sum(1 for r in rows if r.get("warm") == "plan library"),
+        "solve_s": quantiles([r["solve_s"] for r in ok]),
+        "total_s": quantiles([r["total_s"] for r in ok]),
+        "t_c_estimate_s": quantiles([r["solve_s"] for r in ok]).get("p95"),
+        "t_c_note": "p95 of solve_s over the instances: paper A §4.4's estimate of the "
+                    "replanning budget t_c",
+        "random": random, "seed": seed if random is not None else None,
+        "scheduler": scheduler or f"LocalCluster({workers or os.cpu_count()} processes, "
+                                  "1 thread each)",
+        "workers": per_worker,
+        "failed": [{"instance": r["instance"], "error": r.get("error", "")}
+                   for r in rows if r["status"] == "failed"],
+    }
+    with open(os.path.join(stage, "sweep.csv"), "w") as fh:
+        fh.write(_csv(axes, rows, spec_names))
+    with open(os.path.join(stage, "sweep.json"), "w") as fh:
+        json.dump(strict(summary), fh, indent=2, allow_nan=False)
+    with open(os.path.join(stage, "sweep.html"), "w") as fh:
+        fh.write(render(summary, axes, rows, spec_names))
+    mode = 0o666 & ~_umask()
+    with _locked(outdir):
+        plans_dir = os.path.join(outdir, "plans")
+        os.makedirs(plans_dir, exist_ok=True)
+        mine = set(os.listdir(os.path.join(stage, "plans")))
+        for n in sorted(mine):
+            src = os.path.join(stage, "plans", n)
+            os.chmod(src, mode)
+            os.replace(src, os.path.join(plans_dir, n))
+        for n in os.listdir(plans_dir):  # an earlier sweep's plans that this one has not
+            p = os.path.join(plans_dir, n)
+            if _PLAN.fullmatch(n) and n not in mine and os.path.isfile(p) \
+                    and not os.path.islink(p):
+                os.unlink(p)
+        for n in OWNED:
+            src = os.path.join(stage, n)
+            os.chmod(src, mode)
+            os.replace(src, os.path.join(outdir, n))
+    return summary
+
+
+def _umask() -> int:
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+def _summary_text(s: dict, outdir: str) -> str:
+    q = s["solve_s"]
+    return (f"{s['finished']} instances: " + ", ".join(f"{v} {k}" for k, v in s["counts"].items())
+            + f"; wall {s['wall_s']:.1f} s ({s['per_instance_s']:.2f} s per instance), "
+            f"{s['nlp_builds']} NLP builds, solve_s p50 {q.get('p50', float('nan')):.2f} s, "
+            f"p95 {q.get('p95', float('nan')):.2f} s (t_c estimate)\n→ {outdir}/sweep.html")

@@ -1,0 +1,86 @@
+"""One sweep instance, as a Dask worker runs it: source text, mission and ``--set`` items in;
+a CSV row and the plan out.  CasADi objects never travel: the worker process keeps its
+built NLPs (``nlp_cache``, keyed by structure) and the plans it solved (a ``PlanLibrary``
+per structure) in module state between tasks, so the first task of a worker builds and
+later ones bind their values into the same NLP and start from the nearest solved plan."""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+
+from stlc.backends.library import LibrarySeed, PlanLibrary
+
+_LIBRARIES: dict[tuple[str, str], PlanLibrary] = {}
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+        return str(w.name if w.name is not None else w.address)
+    except (ImportError, ValueError):
+        return f"pid{os.getpid()}"
+
+
+def run_instance(source: str, path: str, mission: str, items: list[tuple[str, str]],
+                 values: dict[str, float], index: int, warm: bool = True) -> dict:
+    """Plan and verify one instance; never raises for a bad instance (status ``failed``)."""
+    from stlc.backends import nlp_cache
+
+    os.environ.setdefault("STLC_NO_FORK", "1")  # no fork inside a Dask worker process
+    t0 = time.perf_counter()
+    row: dict = {"instance": index, "values": values, "status": "failed", "error": "",
+                 "robustness": float("nan"), "specs": {}, "iterations": 0, "solve_s": 0.0,
+                 "total_s": 0.0, "worker": _worker_name(), "built": False, "warm": "",
+                 "plan_csv": None}
+    builds = nlp_cache.STATS["builds"]
+    try:
+        row.update(_plan(source, path, mission, items, values, warm))
+    except Exception as e:  # noqa: BLE001 - one instance's failure is a row, not a lost sweep
+        from stlc.diagnostics import StlcError
+
+        if isinstance(e, StlcError):
+            row["error"] = "; ".join(f"{d.code}: {d.message}" for d in e.diagnostics)
+        else:
+            row["error"] = f"{type(e).__name__}: {e}"
+            if os.environ.get("STLC_DEBUG"):
+                row["error"] += "\n" + traceback.format_exc()
+    row["built"] = nlp_cache.STATS["builds"] > builds
+    row["total_s"] = time.perf_counter() - t0
+    return row
+
+
+def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> dict:
+    from stlc.backends.casadi_backend import CasadiNlp
+    from stlc.backends.nlp_cache import structure_key
+    from stlc.frontend.syntax import parse
+    from stlc.output.solution import trajectory_csv
+    from stlc.pipeline import backend_chain, plan, select_missions
+    from stlc.planning.problem import from_mission
+    from stlc.semantics import overrides
+
+    program, vals = overrides.checked(parse(source, path), items)
+    m = select_missions(path, program, mission)[0]
+    problem = from_mission(program, m, values=vals)
+    chain = backend_chain(problem)
+    key = (mission, "")
+    lib = None
+    if isinstance(chain[-1], CasadiNlp):
+        integrator = str(m.options.get("integrator", "rk4"))
+        key = (mission, structure_key(program, m, problem.grid, integrator))
+        lib = _LIBRARIES.setdefault(key, PlanLibrary())
+        near = lib.nearest(vals) if warm else None
+        if near is not None:
+            chain = [LibrarySeed(*near), chain[-1]]
+    _, sol = plan(program, m, values=vals, chain=chain)
+    if lib is not None and sol.status == "satisfied":
+        lib.add(vals, sol.channels, str(values))
+    st = sol.solver
+    return {"status": str(sol.status), "robustness": float(sol.robustness_exact),
+            "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
+            "iterations": int(st.get("iterations", 0) or 0),
+            "solve_s": float(sol.timing.get("solve_s", 0.0)),
+            "warm": chain[0].name, "plan_csv": trajectory_csv(sol)}

@@ -1,0 +1,129 @@
+"""``--set NAME=VALUE``: diagnostics, what it changes, and the one parametric code path (a
+compile with ``--set`` equals a compile of the edited file; one build serves both)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stlc.analysis import monitor
+from stlc.backends import nlp_cache
+from stlc.diagnostics import StlcError
+from stlc.pipeline import load, plan
+
+SOURCE = """\
+const T = 3 s
+vehicle p : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (2, 2, 2) m/s^2
+  start { pos = (0, 0, 0) m }
+}
+scenario {
+  workspace = box((-3, -3, -1), (3, 3, 1)) m
+  human op {
+    pos = (1.5, 0, 0) m
+    att = (0, 0, 0) deg
+    region r = box((-0.4, 0.2, -0.2), (0.0, 0.6, 0.2)) m
+  }
+}
+mission m {
+  vehicles = [p]
+  horizon = 4 s
+  step = 0.2 s
+  spec reach = eventually[1, T] always[0, 0.4] (p.pos in op.r)
+  spec stay = always (p.pos in workspace)
+  require reach and stay
+  minimize -robustness
+}
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "f.stl") -> str:
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return str(p)
+
+
+def codes(e: StlcError) -> list[str]:
+    return [d.code for d in e.diagnostics]
+
+
+def test_values_applied_to_the_checked_program(tmp_path):
+    path = write(tmp_path, SOURCE)
+    lo = load(path, ["op.att.z=90 deg", "op.pos.y=-0.5 m", "p.start.pos.x=25 cm", "T=2 s"])
+    pr = lo.program
+    assert pr.params["op.att.z"] == pytest.approx(np.pi / 2)
+    assert pr.params["op.pos.y"] == -0.5 and pr.params["op.pos.x"] == 1.5
+    assert pr.scenario.humans[0].att == pytest.approx((0, 0, np.pi / 2))
+    assert pr.vehicles["p"].start_pos == pytest.approx((0.25, 0, 0))
+    assert lo.values == pytest.approx({"op.att.z": np.pi / 2, "op.pos.y": -0.5,
+                                       "p.start.pos.x": 0.25, "T": 2.0})
+    # the const moved the window's end: a trace inside the region only at t = 2.2..2.6 s
+    # satisfies `reach` with T = 3 s and violates it with T = 2 s
+    t = np.arange(0, 4.01, 0.2)
+    inside = (t > 2.1) & (t < 2.7)
+    # op at (1.5, -0.5) turned 90 deg: the region's frame x axis is world y
+    cx, cy = 1.5 - 0.4, -0.5 - 0.2  # centre of the box in world (frame (-0.2, 0.4) turned)
+    ch = {"p.pos.x": np.where(inside, cx, 0.0), "p.pos.y": np.where(inside, cy, 0.0),
+          "p.pos.z": np.zeros_like(t)}
+    f2 = pr.missions["m"].specs["reach"]
+    f3 = load(path, ["op.att.z=90 deg", "op.pos.y=-0.5 m"]).program.missions["m"].specs["reach"]
+    assert monitor.robustness(f3, 0.2, ch, pr.params) > 0
+    assert monitor.robustness(f2, 0.2, ch, pr.params) < 0
+
+
+def test_errors_are_diagnostics(tmp_path):
+    path = write(tmp_path, SOURCE)
+    with pytest.raises(StlcError) as e:
+        load(path, ["op.att.w=3 deg"])
+    assert codes(e.value) == ["STL101"] and "did you mean" in e.value.diagnostics[0].help
+    for bad, code in [("op.pos.x=3 deg", "STL204"), ("T=3", "STL204"), ("op.pos.x=3", "STL204"),
+                      ("T=abc", "STL201"), ("op.pos.x", "STL201"), ("p.start.att.z=1 deg",
+                                                                       "STL101")]:
+        with pytest.raises(StlcError) as e:
+            load(path, [bad])
+        assert codes(e.value) == [code], bad
+    with pytest.raises(StlcError) as e:  # all problems at once
+        load(path, ["nope=1 m", "op.pos.z=1 s"])
+    assert sorted(codes(e.value)) == ["STL101", "STL204"]
+    r = subprocess.run([sys.executable, "-m", "stlc", "check", path, "--set", "op.pos.q=1 m"],
+                       capture_output=True, text=True)
+    assert r.returncode == 1 and "error[STL101]" in r.stderr and "did you mean `op.pos.z`" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_set_equals_edited_file_one_build(tmp_path):
+    """The parametric NLP with --set values gives the plan of the edited file (exactly: the
+    same NLP with the same parameter values), and the second instance reuses the build."""
+    nlp_cache.clear()
+    path = write(tmp_path, SOURCE)
+    edited = write(tmp_path, SOURCE.replace("pos = (1.5, 0, 0) m", "pos = (1.2, 0, 0) m")
+                   .replace("att = (0, 0, 0) deg", "att = (0, 0, 20) deg")
+                   .replace("start { pos = (0, 0, 0) m }", "start { pos = (0, 0.3, 0) m }"),
+                   "edited.stl")
+    sets = ["op.pos.x=1.2 m", "op.att.z=20 deg", "p.start.pos.y=0.3 m"]
+    b0 = nlp_cache.STATS["builds"]
+    lo = load(path, sets)
+    _, a = plan(lo.program, lo.program.missions["m"], values=lo.values)
+    b1 = nlp_cache.STATS["builds"]
+    pr_e = load(edited).program
+    _, b = plan(pr_e, pr_e.missions["m"])  # (its spans differ: a build of its own)
+    b2 = nlp_cache.STATS["builds"]
+    assert a.robustness_exact == pytest.approx(b.robustness_exact, abs=1e-9)
+    for k in b.channels:
+        np.testing.assert_allclose(a.channels[k], b.channels[k], atol=1e-9)
+    assert a.channels["p.pos.y"][0] == pytest.approx(0.3)
+    # the nominal instance of the same file: no new build, its own start and pose
+    pr_n = load(path).program
+    _, c = plan(pr_n, pr_n.missions["m"])
+    assert b1 - b0 == 1 and nlp_cache.STATS["builds"] == b2  # one build for both
+    assert c.channels["p.pos.y"][0] == pytest.approx(0.0)
+    # the verdict is the exact monitor's on each instance's own plan and parameters
+    for pr, s in ((lo.program, a), (pr_n, c)):
+        f = pr.missions["m"].requirement
+        assert s.robustness_exact == pytest.approx(
+            monitor.robustness(f, 0.2, s.channels, pr.params), abs=1e-12)

@@ -1,0 +1,181 @@
+"""``stlc sweep``: on a real Dask cluster started here (``dask scheduler`` + two ``dask
+worker`` processes on free localhost ports), the sweep's numbers against the exact monitor
+(``stlc monitor --set ... --trace plans/<i>.csv``), a failing instance as a row, Ctrl-C."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+SOURCE = """\
+const T = 3 s
+vehicle p : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (2, 2, 2) m/s^2
+  start { pos = (0, 0, 0) m }
+}
+scenario {
+  workspace = box((-3, -3, -1), (3, 3, 1)) m
+  human op {
+    pos = (1.5, 0, 0) m
+    att = (0, 0, 0) deg
+    region r = box((-0.4, 0.2, -0.2), (0.0, 0.6, 0.2)) m
+  }
+}
+mission m {
+  vehicles = [p]
+  horizon = 4 s
+  step = 0.2 s
+  spec reach = eventually[1, T] always[0, 0.4] (p.pos in op.r)
+  spec stay = always (p.pos in workspace)
+  require reach and stay
+  minimize -robustness
+}
+"""
+
+ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stlc(*args: str, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "stlc", *args], capture_output=True,
+                          text=True, env=ENV, timeout=600, **kw)
+
+
+def rows(out: Path) -> list[dict]:
+    with open(out / "sweep.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture
+def cluster():
+    port = free_port()
+    addr = f"tcp://127.0.0.1:{port}"
+    dask = [sys.executable, "-m", "dask"]
+    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                               "--no-dashboard"], env=ENV, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        for name in ("w1", "w2"):
+            procs.append(subprocess.Popen([*dask, "worker", addr, "--nthreads", "1",
+                                           "--nworkers", "1", "--name", name,
+                                           "--no-dashboard"], env=ENV,
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        from distributed import Client
+
+        with Client(addr, timeout="60s") as c:
+            c.wait_for_workers(2, timeout=120)
+        yield addr
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_sweep_on_a_real_cluster(tmp_path, cluster):
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    r = stlc("sweep", str(f), "--mission", "m", "--vary", "op.att.z=-30 deg:30 deg:3",
+             "--vary", "op.pos.x=100 cm:1.5 m:2", "--scheduler", cluster, "-o", str(out), "-q")
+    assert r.returncode == 0, r.stderr
+    rs = rows(out)
+    assert [int(x["instance"]) for x in rs] == list(range(6))
+    assert {x["status"] for x in rs} == {"satisfied"}
+    assert {x["worker"] for x in rs} == {"w1", "w2"}  # both workers were used
+    # the grid, in SI, ends included, x fastest-varying last
+    assert [float(x["op.pos.x"]) for x in rs] == [1.0, 1.5] * 3
+    assert float(rs[0]["op.att.z"]) == pytest.approx(-0.5235987755982988, abs=1e-15)
+    summary = json.loads((out / "sweep.json").read_text())
+    assert summary["counts"] == {"satisfied": 6} and 1 <= summary["nlp_builds"] <= 2
+    assert summary["t_c_estimate_s"] == summary["solve_s"]["p95"] > 0
+    html = (out / "sweep.html").read_text()
+    assert "plans/5.csv" in html and "Plotly" in html and "https://" not in html.split(
+        "<script>", 1)[0]
+    # the stored plan, re-monitored at the instance's values, gives the sweep's robustness
+    for x in (rs[0], rs[5]):
+        plan = out / "plans" / f"{x['instance']}.csv"
+        m = stlc("monitor", str(f), "--set", f"op.att.z={x['op.att.z']} rad", "--set",
+                 f"op.pos.x={x['op.pos.x']} m", "--trace", str(plan), "--json")
+        assert m.returncode == 0, m.stderr
+        specs = json.loads(m.stdout)["specs"]
+        assert specs["m"]["robustness"] == pytest.approx(float(x["robustness"]), abs=1e-6)
+        assert specs["reach"]["robustness"] == pytest.approx(float(x["spec.reach"]), abs=1e-6)
+
+
+def test_failing_instance_is_a_row(tmp_path):
+    """T = 2.5 s is not on the 0.2 s grid: that instance fails (STL303) on its worker, the
+    others are planned; exit 3 (not every instance satisfied)."""
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    r = stlc("sweep", str(f), "--mission", "m", "--vary", "T=2 s:3 s:3", "--workers", "1",
+             "-o", str(out), "-q")
+    assert r.returncode == 3, r.stderr
+    rs = rows(out)
+    assert [x["status"] for x in rs] == ["satisfied", "failed", "satisfied"]
+    assert "STL303" in rs[1]["error"]
+    assert sorted(os.listdir(out / "plans")) == ["0.csv", "2.csv"]
+
+
+def test_bad_sweep_input(tmp_path):
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    for vary, code in [("op.pos.q=0 m:1 m:2", "STL101"), ("op.pos.x=0 m:1 deg:2", "STL204"),
+                       ("op.pos.x=0 m:1 m", "STL201")]:
+        r = stlc("sweep", str(f), "--mission", "m", "--vary", vary, "-o", str(tmp_path / "o"))
+        assert r.returncode == 1 and f"error[{code}]" in r.stderr, (vary, r.stderr)
+        assert "Traceback" not in r.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_ctrl_c_leaves_finished_rows(tmp_path):
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    p = subprocess.Popen([sys.executable, "-m", "stlc", "sweep", str(f), "--mission", "m",
+                          "--vary", "op.pos.y=-0.5 m:0.5 m:40", "--workers", "1", "-o",
+                          str(out)], env=ENV, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    seen = threading.Event()
+
+    def watch():
+        buf = ""
+        while (c := p.stderr.read(1)):
+            buf += c
+            if "] 2/40" in buf:
+                seen.set()
+
+    threading.Thread(target=watch, daemon=True).start()
+    assert seen.wait(300)
+    p.send_signal(signal.SIGINT)
+    t0 = time.time()
+    assert p.wait(60) == 130
+    assert time.time() - t0 < 30
+    rs = rows(out)
+    assert 2 <= len(rs) < 40 and {x["status"] for x in rs} == {"satisfied"}
+    assert sorted(os.listdir(out / "plans")) == sorted(f"{x['instance']}.csv" for x in rs)
+    assert json.loads((out / "sweep.json").read_text())["interrupted"] is True
+    assert sorted(os.listdir(out)) == ["mine.txt", "plans", "sweep.csv", "sweep.html",
+                                       "sweep.json"]
