@@ -42,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from stlc.team import TeamScenario
-from stlc.team.arcs import Arc, dwell_times
+from stlc.team.arcs import Arc
 from stlc.team.highs import Result, _quiet_banner, solve_mip
 from stlc.team.trips import Trips, best_order
 
@@ -164,6 +164,9 @@ def _labels(dr: _Drone, pi: np.ndarray, mu: np.ndarray, gamma: float, sigma: flo
     while len(front):
         if time.perf_counter() > deadline:
             raise TimeoutError
+        if cap < EXACT_LABELS and len(front) > cap // 4:  # heuristic round: the best only
+            fs0, frc0 = lab.arrays()[0][front], lab.arrays()[4][front]
+            front = front[np.argsort(frc0 - ((fs0[:, None] & bits) != 0) @ rho)[:cap // 4]]
         fs, fq, fu, fc, frc = (x[front] for x in lab.arrays()[:5])
         base = frc + rho_all - ((fs[:, None] & bits) != 0) @ rho - sigma
         new = []
@@ -194,8 +197,14 @@ def _labels(dr: _Drone, pi: np.ndarray, mu: np.ndarray, gamma: float, sigma: flo
                                 frc[rr[i]] + r[cand[k]] + pen[i, k], front[rr[i]], cand[k]))
         if not new:
             break
-        front = lab.add(*(np.concatenate(x) for x in zip(*new, strict=True)))
-        if len(lab.best) > cap:
+        cols = [np.concatenate(x) for x in zip(*new, strict=True)]
+        cut = len(cols[0]) + len(lab.best) > cap
+        if cut:  # keep the most promising candidates (lowest reduced cost) up to the cap
+            room = max(cap - len(lab.best), 1)
+            best = np.argsort(cols[4] - ((cols[0][:, None] & bits) != 0) @ rho)[:room]
+            cols = [x[best] for x in cols]
+        front = lab.add(*cols)
+        if cut:
             return lab, False
     return lab, True
 

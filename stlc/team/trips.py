@@ -167,7 +167,6 @@ def enumerate_trips(sc: TeamScenario, arcs: list[Arc], limit: float, ins: float)
             if direct[e] <= limit + 1e-9:
                 drone.append(d), start.append(-1), end.append(e if ns else -1)
                 members.append(()), cost.append(float(direct[e]))
-        starts = 1 + ns
         for k, (combos, h) in table.items():
             # best over first f: entry[s, c_f] + H[f, l]  -> (m, starts, k_l)
             e_in = ent[:, combos].transpose(1, 0, 2)  # (m, starts, k)
