@@ -251,6 +251,9 @@ class _Master:
         self.arts = arts
         self.n_art = len(arts)
         self.seen: set[tuple[int, int, int, int]] = set()
+        self.col_rows: list[np.ndarray] = []
+        self.col_vals: list[np.ndarray] = []
+        self._mat = None
 
     def rows_of(self, c: Column) -> tuple[list[int], list[float]]:
         rows = [j for j in range(self.nt) if (c.targets >> j) & 1] + [self.nt + c.drone]
@@ -275,12 +278,15 @@ class _Master:
         for c in new:
             starts.append(len(index))
             r, v = self.rows_of(c)
+            self.col_rows.append(np.asarray(r, dtype=np.int32))
+            self.col_vals.append(np.asarray(v))
             index += r
             vals += v
         self.h.addCols(len(new), np.array([c.cost for c in new]), np.zeros(len(new)),
                        np.ones(len(new)), len(index), np.array(starts, dtype=np.int32),
                        np.array(index, dtype=np.int32), np.array(vals))
         self.cols += new
+        self._mat = None
         return len(new)
 
     def solve_lp(self, deadline: float):
@@ -294,17 +300,18 @@ class _Master:
 
     def matrix(self):
         """The constraint matrix (artificials first) and the cost vector."""
-        rows, cols_i, vals = list(self.arts), list(range(self.n_art)), [1.0] * self.n_art
-        for k, c in enumerate(self.cols):
-            r, v = self.rows_of(c)
-            rows += r
-            cols_i += [self.n_art + k] * len(r)
-            vals += v
-        a = sp.csc_matrix((vals, (rows, cols_i)), shape=(len(self.lo), self.n_art +
-                                                         len(self.cols)))
-        cost = np.concatenate([[self.big if r < self.nt + self.nd else self.refill_price
-                                for r in self.arts], [c.cost for c in self.cols]])
-        return a, cost
+        if self._mat is None:
+            n = self.n_art + len(self.cols)
+            lens = [len(r) for r in self.col_rows]
+            rows = np.concatenate([np.asarray(self.arts, dtype=np.int32)] + self.col_rows)
+            cols = np.concatenate([np.arange(self.n_art),
+                                   np.repeat(np.arange(self.n_art, n), lens)])
+            vals = np.concatenate([np.ones(self.n_art)] + self.col_vals)
+            a = sp.csc_matrix((vals, (rows, cols)), shape=(len(self.lo), n))
+            cost = np.concatenate([[self.big if r < self.nt + self.nd else self.refill_price
+                                    for r in self.arts], [c.cost for c in self.cols]])
+            self._mat = (a, cost)
+        return self._mat
 
     def reduced(self, y: np.ndarray) -> np.ndarray:
         """Reduced costs of all columns (artificials first) under the duals ``y``."""
@@ -411,9 +418,14 @@ def solve(sc: TeamScenario, arcs: list[Arc], trips: Trips, limit: float, deadlin
     cmax = max((d.capacity for d in sc.drones), default=0)
     refills = math.ceil(spare / cmax) if spare > 0 and cmax > 0 and ns else 0
     master = _Master(nt, nd, ns, exclusive, big, refills, 2.0 * max(limit, 1.0))
-    init = [Column(d, (int(dr.idx[i]),), int(dr.mask[i]),  # every one-trip route
-                   (1 << int(dr.end[i])) if dr.end[i] >= 0 else 0, float(dr.cost[i]))
-            for d, dr in enumerate(drones) for i in dr.dep]
+    init = []  # one-trip routes: per drone and target set, the cheapest end station
+    for d, dr in enumerate(drones):
+        order = dr.dep[np.lexsort((dr.cost[dr.dep], dr.mask[dr.dep]))]
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = dr.mask[order][1:] != dr.mask[order][:-1]
+        init += [Column(d, (int(dr.idx[i]),), int(dr.mask[i]),
+                        (1 << int(dr.end[i])) if dr.end[i] >= 0 else 0, float(dr.cost[i]))
+                 for i in order[first]]
     known = _start_columns(sc, trips, start_routes) if start_routes else []
     master.add(init + known)
     res = CGResult(None, {}, math.inf, -math.inf, "time")
