@@ -42,20 +42,6 @@ def _grow(box: Box, m: float) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(box.lo, dtype=float) - m, np.asarray(box.hi, dtype=float) + m
 
 
-def _hits_many(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Does each closed segment ``p0[i]-p1[i]`` ((m, 3) each) meet the open box (lo, hi)?
-    (slab test, vectorised)"""
-    d = p1 - p0
-    flat = np.abs(d) < 1e-12
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.where(flat, -np.inf, (lo - p0) / d)
-        b = np.where(flat, np.inf, (hi - p0) / d)
-    t0 = np.maximum(np.max(np.minimum(a, b), axis=1), 0.0)
-    t1 = np.minimum(np.min(np.maximum(a, b), axis=1), 1.0)
-    inside_flat = np.all(~flat | ((lo < p0) & (p0 < hi)), axis=1)
-    return inside_flat & (t0 < t1)
-
-
 def _hits_boxes(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Does the closed segment p0-p1 meet each open box ``(lo[k], hi[k])`` ((k, 3) each)?"""
     d = p1 - p0
@@ -145,12 +131,23 @@ class Router:
     def _direct_clear(self, p0, p1, vel_max, acc_max) -> bool:
         if not self.boxes:
             return True
-        skip = self._exempt(p0, p1)
+        skip = self._inside(p0, p1)
         prim = rest_to_rest(p0, p1, vel_max, acc_max)
         t = np.linspace(0.0, prim.duration, max(2, int(prim.duration / 0.1) + 2))
         pts = prim.sample(t)[0]
-        return not any(i not in skip and np.any(_hits_many(pts[:-1], pts[1:], lo, hi))
-                       for i, (lo, hi) in enumerate(self.boxes))
+        a0, a1 = pts[:-1, None, :], pts[1:, None, :]  # segments x boxes
+        lo, hi = self.lo[None][:, ~skip], self.hi[None][:, ~skip]
+        if lo.shape[1] == 0:
+            return True
+        d = a1 - a0
+        flat = np.abs(d) < 1e-12
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ta = np.where(flat, -np.inf, (lo - a0) / d)
+            tb = np.where(flat, np.inf, (hi - a0) / d)
+        t0 = np.maximum(np.max(np.minimum(ta, tb), axis=2), 0.0)
+        t1 = np.minimum(np.min(np.maximum(ta, tb), axis=2), 1.0)
+        inside_flat = np.all(~flat | ((lo < a0) & (a0 < hi)), axis=2)
+        return not bool(np.any(inside_flat & (t0 < t1)))
 
     def path(self, p0, p1, vel_max, acc_max) -> list[np.ndarray]:
         """``[p0, p1]`` when the direct primitive is clear, else the via-point path."""
