@@ -44,10 +44,10 @@ import scipy.sparse as sp
 from stlc.team import TeamScenario
 from stlc.team.arcs import Arc
 from stlc.team.highs import Result, _quiet_banner, solve_mip
+from stlc.team.pricing import EXACT_LABELS, DroneTrips, Labels, chain, labels
 from stlc.team.trips import Trips, best_order
 
 HEURISTIC_LABELS = 1000  # labels per drone in a heuristic pricing round
-EXACT_LABELS = 400_000  # labels per drone before exact pricing / enumeration gives up
 EPS = 1e-7
 #: presolve off: on these set-partitioning models it costs 5x the search (3×9: 0.95 s vs
 #: 0.18 s for the 671-column model)
@@ -74,148 +74,6 @@ class CGResult:
     columns: int = 0
     rounds: int = 0
     stages: dict[str, float] = field(default_factory=dict)
-
-
-class _Drone:
-    """The trips of one drone, grouped for labelling."""
-
-    def __init__(self, trips: Trips, d: int, masks: np.ndarray, member: np.ndarray):
-        mine = np.flatnonzero(trips.drone == d)
-        self.idx = mine
-        self.start = trips.start[mine]
-        self.end = trips.end[mine]
-        self.mask = masks[mine]
-        self.cost = trips.cost[mine]
-        self.member = member[mine]  # (m_d, nt) 0/1
-        self.size = self.member.sum(axis=1)
-        self.dep = np.flatnonzero(self.start < 0)
-        self.by_q = {int(q): np.flatnonzero(self.start == q) for q in np.unique(self.start)
-                     if q >= 0}
-
-
-class Labels:
-    """Labels of one drone in arrays (see ``_labels``); ``best`` maps a key to its index."""
-
-    def __init__(self) -> None:
-        self.s, self.q, self.u, self.cost, self.rc, self.parent, self.trip = ([] for _ in
-                                                                               range(7))
-        self.best: dict[tuple[int, int, int], int] = {}
-
-    def add(self, s, q, u, cost, rc, parent, trip) -> np.ndarray:
-        """Append the candidates that improve on their key (cheapest first); their indices."""
-        order = np.lexsort((cost, u, q, s))
-        s, q, u, cost, rc, parent, trip = (x[order] for x in (s, q, u, cost, rc, parent,
-                                                                trip))
-        first = np.ones(len(s), dtype=bool)
-        first[1:] = (s[1:] != s[:-1]) | (q[1:] != q[:-1]) | (u[1:] != u[:-1])
-        added = []
-        n = sum(len(x) for x in self.s)
-        for i in np.flatnonzero(first):
-            key = (int(s[i]), int(q[i]), int(u[i]))
-            old = self.best.get(key)
-            if old is not None and self._cost(old) <= cost[i] + 1e-9:
-                continue
-            self.best[key] = n + len(added)
-            added.append(i)
-        added = np.asarray(added, dtype=int)
-        for lst, x in zip((self.s, self.q, self.u, self.cost, self.rc, self.parent,
-                           self.trip), (s, q, u, cost, rc, parent, trip), strict=True):
-            lst.append(x[added])
-        self._flat = None
-        return np.arange(n, n + len(added))
-
-    def _cost(self, i: int) -> float:
-        return float(self.arrays()[3][i])
-
-    def arrays(self):
-        if getattr(self, "_flat", None) is None:
-            self._flat = [np.concatenate(x) if x else np.zeros(0) for x in
-                          (self.s, self.q, self.u, self.cost, self.rc, self.parent, self.trip)]
-        return self._flat
-
-
-def _labels(dr: _Drone, pi: np.ndarray, mu: np.ndarray, gamma: float, sigma: float,
-            limit: float,
-            thr: float, cap: int, deadline: float, exclusive: bool, single: bool):
-    """Labels of one drone whose completed routes could have reduced cost < ``thr``, as
-    ``(Labels, complete)`` — ``complete`` is False when the search stopped at ``cap``
-    labels; raises ``TimeoutError`` past ``deadline``.  With ``single`` a route uses one
-    station only (its home: every station is some drone's home and used by it alone)."""
-    nt = len(pi)
-    r = dr.cost - dr.member @ pi - gamma * (dr.start >= 0)  # γ: dual of the refill row
-    rho = np.zeros(nt)
-    st = (dr.size > 0) & (dr.start >= 0)
-    if st.any():
-        per = np.where(dr.member[st] > 0, (r[st] / dr.size[st])[:, None], np.inf)
-        rho = np.minimum(0.0, per.min(axis=0))
-    rho_t = dr.member @ rho
-    rho_all = float(rho.sum())
-    bits = np.int64(1) << np.arange(nt, dtype=np.int64)
-    mu = np.asarray(mu, dtype=float)
-    lab = Labels()
-    dep = dr.dep
-    ends = dr.end[dep]
-    u0 = np.where(ends >= 0, np.int64(1) << np.maximum(ends, 0), 0) if exclusive else \
-        np.zeros(len(dep), dtype=np.int64)
-    rc0 = r[dep] - (np.where(ends >= 0, mu[np.maximum(ends, 0)], 0.0) if exclusive else 0.0)
-    keep = rc0 + rho_all - rho_t[dep] - sigma < thr
-    front = lab.add(dr.mask[dep][keep], ends[keep], u0[keep], dr.cost[dep][keep], rc0[keep],
-                    np.full(keep.sum(), -1), dep[keep])
-    while len(front):
-        if time.perf_counter() > deadline:
-            raise TimeoutError
-        if cap < EXACT_LABELS and len(front) > cap // 4:  # heuristic round: the best only
-            fs0, frc0 = lab.arrays()[0][front], lab.arrays()[4][front]
-            front = front[np.argsort(frc0 - ((fs0[:, None] & bits) != 0) @ rho)[:cap // 4]]
-        fs, fq, fu, fc, frc = (x[front] for x in lab.arrays()[:5])
-        base = frc + rho_all - ((fs[:, None] & bits) != 0) @ rho - sigma
-        new = []
-        for q in np.unique(fq):
-            cand = dr.by_q.get(int(q))
-            if cand is None:
-                continue
-            if single:
-                cand = cand[dr.end[cand] == q]
-            rows = np.flatnonzero(fq == q)
-            chunk = max(1, 2_000_000 // max(len(cand), 1))
-            for lo in range(0, len(rows), chunk):
-                rr = rows[lo:lo + chunk]
-                ok = (fs[rr, None] & dr.mask[cand][None, :]) == 0
-                ok &= fc[rr, None] + dr.cost[cand][None, :] <= limit + 1e-9
-                val = base[rr, None] + (r[cand] - rho_t[cand])[None, :]
-                pen = np.zeros((len(rr), len(cand)))
-                if exclusive:
-                    e = dr.end[cand]
-                    pen = np.where((fu[rr, None] >> e[None, :]) & 1, 0.0, -mu[e][None, :])
-                ok &= val + pen < thr
-                i, k = np.nonzero(ok)
-                if len(i):
-                    e = dr.end[cand[k]]
-                    new.append((fs[rr[i]] | dr.mask[cand[k]], e,
-                                (fu[rr[i]] | (np.int64(1) << e)) if exclusive else fu[rr[i]],
-                                fc[rr[i]] + dr.cost[cand[k]],
-                                frc[rr[i]] + r[cand[k]] + pen[i, k], front[rr[i]], cand[k]))
-        if not new:
-            break
-        cols = [np.concatenate(x) for x in zip(*new, strict=True)]
-        cut = len(cols[0]) + len(lab.best) > cap
-        if cut:  # keep the most promising candidates (lowest reduced cost) up to the cap
-            room = max(cap - len(lab.best), 1)
-            best = np.argsort(cols[4] - ((cols[0][:, None] & bits) != 0) @ rho)[:room]
-            cols = [x[best] for x in cols]
-        front = lab.add(*cols)
-        if cut:
-            return lab, False
-    return lab, True
-
-
-def _chain(lab: Labels, i: int, dr: _Drone) -> tuple[int, ...]:
-    parent, trip = lab.arrays()[5], lab.arrays()[6]
-    out = []
-    while i >= 0:
-        out.append(int(dr.idx[int(trip[i])]))
-        i = int(parent[i])
-    return tuple(out[::-1])
 
 
 class _Master:
@@ -336,10 +194,10 @@ class _Master:
         return res
 
 
-def _column(lab: Labels, i: int, dr: _Drone, d: int) -> Column:
-    chain = _chain(lab, i, dr)
-    ends = {int(dr.end[np.searchsorted(dr.idx, t)]) for t in chain}
-    return Column(d, chain, int(lab.arrays()[0][i]), sum(1 << e for e in ends if e >= 0),
+def _column(lab: Labels, i: int, dr: DroneTrips, d: int) -> Column:
+    seq = chain(lab, i, dr)
+    ends = {int(dr.end[np.searchsorted(dr.idx, t)]) for t in seq}
+    return Column(d, seq, int(lab.arrays()[0][i]), sum(1 << e for e in ends if e >= 0),
                   float(lab.arrays()[3][i]))
 
 
@@ -374,7 +232,7 @@ def _price(drones, y, nt, nd, ns, exclusive, refills, limit, thr, cap, deadline,
     gamma = float(y[-1]) if refills else 0.0
     found, complete, best = [], True, []
     for d, dr in enumerate(drones):
-        lab, done = _labels(dr, pi, mu, gamma, sigma[d], limit, thr, cap, deadline,
+        lab, done = labels(dr, pi, mu, gamma, sigma[d], limit, thr, cap, deadline,
                             exclusive, single)
         complete &= done
         live = np.fromiter(lab.best.values(), dtype=int, count=len(lab.best))
@@ -412,7 +270,7 @@ def solve(sc: TeamScenario, arcs: list[Arc], trips: Trips, limit: float, deadlin
     member = np.zeros((len(trips.cost), nt))
     for t, mem in enumerate(trips.members):
         member[t, list(mem)] = 1.0
-    drones = [_Drone(trips, d, masks, member) for d in range(nd)]
+    drones = [DroneTrips(trips, d, masks, member) for d in range(nd)]
     big = 10.0 * nd * max(limit, 1.0) + 1000.0
     spare = nt - sum(min(max(d.capacity, 0), nt) for d in sc.drones)
     cmax = max((d.capacity for d in sc.drones), default=0)
