@@ -52,6 +52,7 @@ from stlc.team.paths import router_for
 
 BUDGET_S = 30.0  # wall seconds for the exact assignment before the best known one is used
 WARM_AFTER_S = 10.0  # arcs model: wall seconds before the heuristic warm-starts HiGHS
+HEURISTIC_S = 2.0  # wall seconds the local search may run past the exhausted budget
 MAX_TRIPS = 400_000  # trip columns the route model enumerates at most (else: arcs model)
 
 
@@ -81,9 +82,10 @@ def _leg(sc: TeamScenario):
     return lambda p0, p1, d: leg_time(p0, p1, d.vel_max, d.acc_max, sc.step, router)
 
 
-def heuristic_routes(sc: TeamScenario, limit: float) -> dict[str, list[str]] | None:
-    """Greedy start + local search (``stlc.team.local``); None without stations or when the
-    result does not fit the horizon limit."""
+def heuristic_routes(sc: TeamScenario, limit: float, deadline: float = math.inf
+                     ) -> dict[str, list[str]] | None:
+    """Greedy start + local search (``stlc.team.local``, stopped at ``deadline``); None
+    without stations or when the result does not fit the horizon limit."""
     from stlc.team.greedy import greedy_routes
     from stlc.team.local import local_routes
 
@@ -91,7 +93,7 @@ def heuristic_routes(sc: TeamScenario, limit: float) -> dict[str, list[str]] | N
         return None
     try:
         routes = local_routes(sc, _leg(sc), dwell_times(sc), limit,
-                              greedy_routes(sc, _leg(sc), dwell_times(sc)))
+                              greedy_routes(sc, _leg(sc), dwell_times(sc)), deadline=deadline)
     except AssignmentError:
         return None
     ok = all(route_time(sc, d, routes[dr.name]) <= limit + 1e-9
@@ -132,7 +134,9 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
 
     def heuristic():
         if not heur:
-            heur.append(heuristic_routes(sc, limit))
+            # the local search gets what is left of the budget, at least HEURISTIC_S
+            heur.append(heuristic_routes(sc, limit, max(deadline, time.perf_counter()
+                                                        + HEURISTIC_S)))
         return heur[0]
 
     if use_routes:
