@@ -53,7 +53,8 @@ from stlc.team.paths import router_for
 BUDGET_S = 30.0  # wall seconds for the exact assignment before the best known one is used
 WARM_AFTER_S = 10.0  # arcs model: wall seconds before the heuristic warm-starts HiGHS
 HEURISTIC_S = 2.0  # wall seconds the local search may run past the exhausted budget
-MAX_TRIPS = 400_000  # trip columns the route model enumerates at most (else: arcs model)
+MAX_TRIPS = 400_000
+PROOF_TRIPS = 20_000  # trips up to which the trip model may prove infeasibility  # trip columns the route model enumerates at most (else: arcs model)
 
 
 @dataclass
@@ -158,7 +159,9 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
             if res.status != "optimal":
                 stats.method, stats.incumbent = "greedy", "milp"
             return _done(res.routes, stats, c0, w0)
-        if time.perf_counter() < deadline:  # can the model be proved infeasible?
+        if time.perf_counter() < deadline and len(trips.cost) <= PROOF_TRIPS:
+            # can the model be proved infeasible?  (the trip model: its build is not
+            # under HiGHS's time limit, so only where it is small)
             from stlc.team import partition
 
             out = partition.solve(sc, arcs, limit, deadline - time.perf_counter(),
