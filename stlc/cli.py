@@ -21,9 +21,7 @@ import sys
 import traceback
 
 from stlc.diagnostics import StlcError, render_all, to_json
-
-EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_UNSAT, EXIT_INTERNAL = 0, 1, 2, 3, 4
-EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 130, 141
+from stlc.exitcodes import EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -183,7 +181,7 @@ def cmd_monitor(args) -> int:
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
-        from stlc.output.solution import strict_dumps
+        from stlc.strictjson import strict_dumps
 
         print(strict_dumps({"specs": res}))
     else:

@@ -14,9 +14,8 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.diagnostics import Diagnostic, Span, StlcError
+from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
@@ -84,10 +83,6 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
     return out
 
 
-def as_float(x) -> float:
-    return float(np.asarray(x).reshape(-1)[0])
-
-
 # ---------------------------------------------------------------- planning
 
 
@@ -109,7 +104,7 @@ def backend_chain(problem, quiet: bool = True) -> list:
 def _team_comparisons(sols: list) -> None:
     """A team plan is shown beside its seed ("MILP only", paper B Fig. 8), first; the
     refinement already added the standard plan of a ``compare`` variant (Fig. 11)."""
-    from stlc.output.solution import Comparison
+    from stlc.planning.solution import Comparison
 
     seed, final = sols[0], sols[-1]
     final.comparisons.insert(0, Comparison("MILP only", dict(seed.channels)))
@@ -155,12 +150,9 @@ def mission_span(path: str, m: model.Mission) -> Span:
 
 def select_missions(path: str, program: model.Program, name: str | None) -> list:
     if name is not None:
-        if name not in program.missions:
-            raise StlcError([Diagnostic("STL101", f"no mission `{name}` in {path}",
-                                        Span(path, 1, 1, 1, 2),
-                                        did_you_mean(name, program.missions) or
-                                        "missions: " + ", ".join(program.missions))])
-        return [program.missions[name]]
+        from stlc.semantics.specs import mission_named
+
+        return [mission_named(path, program, name)]
     if not program.missions:
         raise StlcError([Diagnostic("STL109", f"{path} declares no mission to compile",
                                     Span(path, 1, 1, 1, 2),
@@ -188,7 +180,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if out == "":  # not "the current directory" (nor `-o ""` + mission name)
             preflight(out, span)
         preflight(outdirs[m.name], span)
-    code = outputs.EXIT_OK
+    code = EXIT_OK
     for m in missions:
         t1 = time.perf_counter()
         _, sol = plan(program, m, quiet=quiet)
@@ -201,7 +193,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
         if sol.status != "satisfied":
-            code = outputs.EXIT_UNSAT
+            code = EXIT_UNSAT
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code
@@ -215,8 +207,8 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     from stlc.analysis.assess import risk_table, run_risk, select_mission
     from stlc.analysis.risk import RiskError, SamplingError, save_samples
     from stlc.analysis.trace import check_signals, read_trace
-    from stlc.output.solution import Solution
-    from stlc.planning.problem import mission_specs
+    from stlc.planning.solution import Solution
+    from stlc.semantics.specs import mission_specs
 
     program = load(path).program
     m = select_mission(path, program, mission)
@@ -234,7 +226,7 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
                         ) from None
     outdir = out or os.path.dirname(os.path.abspath(trajectory))
     from stlc.output.directory import staged
-    from stlc.output.solution import strict
+    from stlc.strictjson import strict
 
     target = os.path.join(outdir, "risk.json")
     with staged(outdir, mission_span(path, m),
@@ -258,7 +250,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
     """The events of ``stlc simulate``: those given on the command line (``--disturb``,
     ``--fail``) replace the file's ``simulate`` block; each is checked like the file's
     (reported at the mission's name, exit 1)."""
-    from stlc.backends.team_backend import reads_payload
+    from stlc.semantics.specs import reads_payload
     from stlc.semantics.check.events import event_problems
 
     span = mission_span(path, m)
@@ -296,7 +288,7 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
 def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfig) -> None:
     """Before any solve: can a replanning segment keep the specs of ``keep = [...]``?"""
     from stlc.planning.problem import from_mission
-    from stlc.replan.segment import KeptSpecError, kept_clauses
+    from stlc.planning.kept import KeptSpecError, kept_clauses
 
     problem = from_mission(program, m)
     try:
@@ -317,7 +309,6 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     executed trajectory and write the compile outputs plus ``replan.json`` and
     ``executed.csv``.  Exit 0 when every triggered replan was accepted and the executed
     trajectory satisfies the kept specs, 3 otherwise."""
-    from stlc.output import compile as outputs
     from stlc.output.directory import preflight
     from stlc.output.simulate import simulation_summary, write_simulation
 
@@ -341,13 +332,15 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     t1 = time.perf_counter()
     try:
         if fails:
+            from stlc.backends.backup import BackupPlanner
             from stlc.replan.takeover import simulate_failure
 
-            sim = simulate_failure(problem, sol, fails[0], cfg)
+            sim = simulate_failure(problem, sol, fails[0], cfg, planner=BackupPlanner())
         else:
+            from stlc.backends.segment import SegmentBackend
             from stlc.replan.disturb import simulate_disturbances
 
-            sim = simulate_disturbances(problem, sol, dist, cfg)
+            sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
     except ValueError as e:  # the replanning modules' input errors (subclasses)
         if type(e) is ValueError:
             raise
@@ -364,4 +357,4 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     ok = simulation_summary(sim, outdir, quiet)
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    return outputs.EXIT_OK if ok else outputs.EXIT_UNSAT
+    return EXIT_OK if ok else EXIT_UNSAT

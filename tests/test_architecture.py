@@ -3,7 +3,10 @@
 * every module is at most ``MAX_LINES`` lines long;
 * only the vehicle registry (``stlc/vehicles/``) tests whether a vehicle is a
   ``Multirotor`` or a ``PointMass``: no ``isinstance(…, Multirotor | PointMass)`` elsewhere;
-* every module opens with a docstring.
+* every module opens with a docstring;
+* no module outside ``stlc/vehicles/`` compares a string with a vehicle kind
+  (``kind == "multirotor"``, ``b.model != "point_mass"``, ``kind in ("point_mass", …)``):
+  passes ask the model (``stlc.vehicles.model_of(v)``) what it can do (issue 18).
 """
 
 from __future__ import annotations
@@ -79,3 +82,50 @@ def test_the_isinstance_detector():
     }
     for src, want in cases.items():
         assert vehicle_isinstance_calls(ast.parse(src)) == want, src
+
+
+VEHICLE_KINDS = {"multirotor", "point_mass"}
+
+
+def vehicle_kind_comparisons(tree: ast.AST) -> list[int]:
+    """Lines of comparisons (``==``, ``!=``, ``in``, ``not in``) of anything with a string
+    constant that names a vehicle kind, or a tuple/list/set of such constants."""
+    out = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Compare):
+            continue
+        for side in (node.left, *node.comparators):
+            consts = [side] if isinstance(side, ast.Constant) else (
+                list(side.elts) if isinstance(side, (ast.Tuple, ast.List, ast.Set)) else [])
+            if any(isinstance(c, ast.Constant) and c.value in VEHICLE_KINDS for c in consts):
+                out.append(node.lineno)
+                break
+    return out
+
+
+def test_the_vehicle_kinds_are_the_registry_s():
+    from stlc import vehicles
+    from stlc.semantics.check.declarations import READERS
+
+    assert set(vehicles.kinds()) == VEHICLE_KINDS == set(READERS)
+
+
+@pytest.mark.parametrize("path", OUTSIDE_REGISTRY, ids=_rel)
+def test_no_vehicle_kind_test_outside_the_registry(path: Path):
+    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    lines = vehicle_kind_comparisons(tree)
+    assert not lines, (f"{_rel(path)}: compares a vehicle kind by name at lines {lines}; "
+                       "ask the model (stlc.vehicles.model_of(v)) instead")
+
+
+def test_the_kind_detector():
+    cases = {
+        'model_of(v).kind == "multirotor"': [1],
+        'if b.model != "point_mass":\n    pass': [1],
+        'k in ("point_mass", "x")': [1],
+        'r.kind == "obstacle"': [],
+        'READERS = {"multirotor": 1}': [],
+        'x = "point_mass"': [],
+    }
+    for src, want in cases.items():
+        assert vehicle_kind_comparisons(ast.parse(src)) == want, src

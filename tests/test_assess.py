@@ -20,7 +20,8 @@ from stlc.analysis.assess import risk_table, run_risk
 from stlc.analysis.monitor_demand import Demand, Plan, robustness_many
 from stlc.analysis.risk import robustness_histogram, shared_robustness
 from stlc.analysis.smooth_demand import SmoothDemand, smooth_robustness_many
-from stlc.output.solution import Solution
+from stlc.output.solution import trajectory_csv
+from stlc.planning.solution import Solution
 from stlc.pipeline import load
 from stlc.semantics import ir, nnf
 from stlc.semantics.ir import Always, And, Bin, Const, Eventually, Param, Pred, Sig, Until
@@ -313,7 +314,7 @@ def test_smooth_shares_the_exact_predicates():
 
 
 def _write_csv(path, sol: Solution) -> None:
-    path.write_text(sol.trajectory_csv())
+    path.write_text(trajectory_csv(sol))
 
 
 def test_cli_risk_writes_outputs(sit, tmp_path, capsys):

@@ -21,8 +21,9 @@ from stlc import vehicles
 from stlc.analysis import monitor
 from stlc.analysis.trace import read_trace
 from stlc.diagnostics import StlcError
+from stlc.output.solution import trajectory_csv
 from stlc.pipeline import compile_file, load, plan
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
 from stlc.semantics import model, nnf
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -227,7 +228,7 @@ def rk4_step(f, x: np.ndarray, u: np.ndarray, h: float) -> np.ndarray:
 def plan_trace(sol, tmp_path: Path):
     """The plan as ``stlc compile`` writes it (trajectory.csv), read back as a trace."""
     path = tmp_path / "trajectory.csv"
-    path.write_text(sol.trajectory_csv(), encoding="utf-8")
+    path.write_text(trajectory_csv(sol), encoding="utf-8")
     return read_trace(path)
 
 

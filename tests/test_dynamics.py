@@ -1,4 +1,4 @@
-"""Tests for stlc.analysis.geometry and stlc.planning.dynamics against independently computed
+"""Tests for stlc.vehicles.geometry and stlc.vehicles.dynamics against independently computed
 values."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from stlc.analysis import geometry as geo
-from stlc.planning import dynamics as dyn
+from stlc.vehicles import geometry as geo
+from stlc.vehicles import dynamics as dyn
 from stlc.semantics.model import Multirotor, PointMass, Rotor
 from stlc.vehicles import model_of
 
@@ -385,3 +385,26 @@ def test_derived_channels(hexa):
             assert math.isclose(float(val), d[name][k_row], abs_tol=1e-12)
     pm = PointMass("p", vel_max=(1, 1, 1), acc_max=(1, 1, 1), start_pos=(0, 0, 0))
     assert set(model_of(pm).derived_channels(pm, np.zeros((2, 6)))) == {"p.speed", "p.course"}
+
+
+def test_point_mass_linear_model_matches_its_ode_and_rk4():
+    """``linear_model``: the continuous (A, B) reproduces the ODE; the discrete one equals
+    the RK4 step the planners use (exact for this polynomial flow) and the closed form."""
+    v = PointMass("d", (2.0, 2.0, 2.0), (1.5, 1.5, 1.5), (0.0, 0.0, 0.0))
+    vm = model_of(v)
+    A, B = vm.linear_model(v)
+    rng = np.random.default_rng(3)
+    x, u = rng.normal(size=6), rng.normal(size=3)
+    assert np.allclose(A @ x + B @ u, np.asarray(vm.ode(v)(x, u)).ravel())
+    dt = 0.3
+    Ad, Bd = vm.linear_model(v, dt)
+    F = dyn.discrete_dynamics(vm.ode(v), dt, "rk4", 1)
+    assert np.allclose(Ad @ x + Bd @ u, np.asarray(F(x, u)).ravel(), atol=1e-12)
+    p, vel = x[:3], x[3:]
+    assert np.allclose(Ad @ x + Bd @ u, np.concatenate([p + dt * vel + 0.5 * dt**2 * u,
+                                                        vel + dt * u]))
+
+
+def test_multirotor_has_no_linear_model(hexa):
+    assert model_of(hexa).linear_model(hexa) is None
+    assert model_of(hexa).linear_model(hexa, 0.1) is None

@@ -141,7 +141,7 @@ def test_graph_sees_the_package():
     assert chk in g and f"{chk}.context" in g and "stlc.pipeline" in g
     assert chk in g["stlc.pipeline"]  # module-level `from stlc.semantics.check import check`
     assert f"{chk}.units" in g[f"{chk}.context"]  # `from stlc.semantics.check import units`
-    assert "stlc.planning.dynamics" in g[f"{chk}.declarations"]  # a function-level import
+    assert "stlc.vehicles.dynamics" in g[f"{chk}.declarations"]  # a function-level import
 
 
 def test_tarjan_finds_cycles_and_paths():

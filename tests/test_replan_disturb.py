@@ -18,12 +18,20 @@ import pytest
 
 from stlc import pipeline, vehicles
 from stlc.backends.casadi_nlp import substeps
-from stlc.output.solution import Solution
-from stlc.planning import dynamics
+from stlc.planning.solution import Solution
+from stlc.vehicles import dynamics
 from stlc.planning.problem import from_mission
-from stlc.replan.disturb import DisturbanceError, simulate_disturbances
-from stlc.replan.segment import KeptSpecError
+from stlc.backends.segment import SegmentBackend
+from stlc.planning.kept import KeptSpecError
+from stlc.replan import disturb
+from stlc.replan.disturb import DisturbanceError
 from stlc.semantics import model
+
+
+def simulate_disturbances(*args, **kw):
+    """The simulation with the segment backend the pipeline gives it."""
+    return disturb.simulate_disturbances(*args, segment=SegmentBackend, **kw)
+
 
 POINT = """
 vehicle p1 : point_mass {

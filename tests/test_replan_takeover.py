@@ -14,8 +14,16 @@ import numpy as np
 import pytest
 
 from stlc import pipeline
-from stlc.replan.takeover import TakeoverError, retire, simulate_failure
+from stlc.backends.backup import BackupPlanner
+from stlc.replan import takeover
+from stlc.replan.takeover import TakeoverError, retire
 from stlc.semantics import model
+
+
+def simulate_failure(*args, **kw):
+    """The takeover with the backup planner the pipeline gives it."""
+    return takeover.simulate_failure(*args, planner=BackupPlanner(), **kw)
+
 
 MISSION = "tests/missions/takeover_cross.stl"
 T_INS, GAMMA, T_N = 2.0, 2.0, 45.0

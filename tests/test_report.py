@@ -19,10 +19,10 @@ import pytest
 from stlc.diagnostics import Span
 from stlc.output.report import build_view, load_samples, render_report, script_json, write_report
 from stlc.output.report.common import num
-from stlc.output.report.predicates import predicate_line, readable
+from stlc.output.report.predicates import readable
 from stlc.output.report.risk_view import MAX_BINS, MIN_BINS
 from stlc.output.report.scene import region_role, rotation
-from stlc.output.solution import Comparison, Solution, SpecResult, Window
+from stlc.planning.solution import Comparison, Solution, SpecResult, Window
 from stlc.semantics.ir import Always, And, Bin, Bound, Const, Eventually, Or, Pred, Sig
 from stlc.semantics.model import (
     Box,
@@ -165,9 +165,9 @@ def synthetic_case(status: str = "satisfied", risk: bool = True
     violated = status != "satisfied"
     reach_rho = -0.12 if violated else 0.05
     specs = {
-        "safe": SpecResult(0.25, 0.21, True, 1.2, BEHIND, 13),
+        "safe": SpecResult(0.25, 0.21, True, 1.2, BEHIND, 13, binding_line=13),
         "reach": SpecResult(reach_rho, reach_rho - 0.04, not violated, 1.5,
-                            f"uav1.pos.x >= -0.5 {NASTY}", 14),
+                            f"uav1.pos.x >= -0.5 {NASTY}", 14, binding_line=14),
     }
     power = sum(C_F * ch[f"uav1.rotor_speed.{i + 1}"] ** 6 for i in range(6)) * 1e-9
     typed: dict = {
@@ -652,11 +652,14 @@ def test_readable_predicate_labels(label, text):
     assert readable(label) == text
 
 
-def test_predicate_line_ignores_negations():
+def test_the_binding_predicate_keeps_its_line_through_negation():
+    """The normal form pushes ``not`` onto the face predicates; each keeps the span of the
+    predicate written in the source (the report's link to the binding predicate)."""
+    from stlc.semantics import ir, nnf
+
     f = formulas()["safe"]
-    assert predicate_line(f, BEHIND) == 13
-    assert predicate_line(f, "uav1.pos not in operator.behind (x >= lo)") == 13
-    assert predicate_line(f, "uav1.pos in elsewhere (x >= lo)") == 0
+    lines = {p.span.line for p in ir.predicates(nnf.normalize(ir.Not(f)))}
+    assert 13 in lines and 0 not in lines
 
 
 def test_source_lines(view):

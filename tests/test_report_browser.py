@@ -25,7 +25,7 @@ import pytest
 from test_report import synthetic_case
 
 from stlc.output.report import write_report
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 
 #: two point masses hand a parcel to an operator while keeping apart; `far` cannot deliver in
 #: time (a violated plan)

@@ -21,7 +21,7 @@ from test_report import point_mass_team, span
 from stlc.output.report import build_view, render_report
 from stlc.output.report.common import drone_color
 from stlc.output.report.team_view import KIND_COLORS, closest_approach, is_team
-from stlc.output.solution import Comparison, SpecResult
+from stlc.planning.solution import Comparison, SpecResult
 from stlc.semantics.model import Box, Objective, Region
 from stlc.team import PayloadEvent, Visit
 

@@ -12,15 +12,23 @@ command itself is ordered by ``stlc.pipeline.risk_file``).
 
 from __future__ import annotations
 
-from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
-from stlc.output.solution import Solution
-from stlc.planning.problem import mission_specs
+from collections.abc import Mapping
+from typing import Protocol
+
+import numpy as np
+
+from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.semantics import model, nnf
+from stlc.semantics.specs import mission_named, mission_specs
 
-EXIT_OK = 0
 
+class Plan(Protocol):
+    """What the risk pass reads of a plan: its named channels (a ``Solution`` is one; the
+    analysis layer sits below the planning layer and never imports it)."""
 
-def run_risk(program: model.Program, mission: model.Mission, sol: Solution, *,
+    channels: Mapping[str, np.ndarray]
+
+def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
              dt: float | None = None):
     """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results), or
     (None, None) without a ``risk`` block.  ``dt`` is the plan's sample period (default:
@@ -44,12 +52,7 @@ def select_mission(path: str, program: model.Program, mission: str | None) -> mo
     where = Span(path, 1, 1, 1, 2)
     with_risk = [m for m, mm in program.missions.items() if mm.risk is not None]
     if mission is not None:
-        if mission not in program.missions:
-            raise StlcError([Diagnostic(
-                "STL101", f"no mission `{mission}` in {path}", where,
-                did_you_mean(mission, program.missions) or
-                "missions: " + (", ".join(program.missions) or "none"))])
-        m = program.missions[mission]
+        m = mission_named(path, program, mission)
         if m.risk is None:
             raise StlcError([Diagnostic(
                 "STL109", f"mission `{mission}` has no `risk` block to assess", m.span,

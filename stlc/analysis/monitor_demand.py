@@ -66,9 +66,8 @@ def _kids(e) -> tuple:
     return ir.children(e)
 
 
-_FORMULAS = (Pred, TrueF, FalseF, Not, Implies, And, Or, Always, Eventually, Until, Release,
-             Next)
-_WINDOWED = (Always, Eventually, Until, Release)
+_FORMULAS = ir.FORMULA_NODES
+_WINDOWED = ir.WINDOWED
 
 
 class Plan:

@@ -25,7 +25,7 @@ from stlc.diagnostics import Diagnostic, StlcError
 from stlc.semantics import ir
 
 if TYPE_CHECKING:
-    from stlc.output.solution import Solution
+    from stlc.planning.solution import Solution
     from stlc.planning.problem import PlanningProblem
 
 
@@ -149,9 +149,6 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
                                           "plan this mission with a backend that supports it, "
                                           "or rewrite the predicate"))
     return out
-
-
-Progress = Callable[[str], None]
 
 
 def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solution, list]:

@@ -26,7 +26,7 @@ from stlc.analysis import smooth
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
 from stlc.backends.casadi_nlp import STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
-from stlc.output.solution import Comparison, Solution, Verdict
+from stlc.planning.solution import Comparison, Solution, Verdict
 from stlc.planning.problem import PlanningProblem
 
 IPOPT_STATUS_MAP = STATUS_MAP  # IPOPT's codes → SolverStatus, for every backend running IPOPT

@@ -37,7 +37,8 @@ from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_expr import planner_form
 from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
+from stlc.vehicles.dynamics import substeps
 from stlc.semantics import ir, model, nnf
 from stlc.semantics.timegrid import TimeGrid
 
@@ -49,23 +50,7 @@ PLAN_MARGIN = 1e-3
 #: (``choices``): sound, and it removes the smooth max's negative curvature
 FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
 FIX_WINDOWS = os.environ.get("STLC_FIX_WINDOWS", "1") == "1"  # and of every ``eventually``
-#: flight envelope added to a multirotor's own bounds, so that IPOPT cannot wander into the
-#: Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg, |body rate| <= 6 rad/s,
-#: |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless the vehicle sets dforce_max
 FEASIBLE_DEFECT = 1e-6  # max dynamics defect of an iterate accepted as a plan
-ENVELOPE_TILT = np.deg2rad(60.0)
-ENVELOPE_RATE = 6.0
-ENVELOPE_VEL = 5.0
-ENVELOPE_DFORCE_TIME = 0.25
-
-
-MAX_SUBSTEP = 0.1  # s: integrator sub-steps per interval are at most this long
-
-
-def substeps(dt: float) -> int:
-    """RK4 sub-steps per interval: a coarse grid (e.g. 0.5 s in tests) is integrated as
-    accurately as the 0.1 s grid of the papers (one RK4 step per 0.5 s was off by 3-4 cm)."""
-    return max(1, int(np.ceil(dt / MAX_SUBSTEP - 1e-9)))
 
 
 def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") -> float:
@@ -80,19 +65,6 @@ def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") ->
                                        substeps(inv.grid.dt)).map(n - 1)
         worst = max(worst, float(np.max(np.abs(X[:, 1:] - np.asarray(F(X[:, :-1], U))))))
     return worst
-
-
-def envelope(v: model.Vehicle, b: dynamics.Bounds) -> dynamics.Bounds:
-    if vehicles.model_of(v).kind != "multirotor":
-        return b
-    x_lo, x_hi, u_lo, u_hi = (np.array(a, dtype=float) for a in (b.x_lo, b.x_hi, b.u_lo, b.u_hi))
-    x_lo[3:5], x_hi[3:5] = -ENVELOPE_TILT, ENVELOPE_TILT
-    x_lo[6:9], x_hi[6:9] = -ENVELOPE_VEL, ENVELOPE_VEL
-    x_lo[9:12], x_hi[9:12] = -ENVELOPE_RATE, ENVELOPE_RATE
-    if v.dforce_max is None:
-        r = (v.force_max - v.force_min) / ENVELOPE_DFORCE_TIME
-        u_lo[:], u_hi[:] = -r, r
-    return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
 
 
 #: MUMPS: AMD ordering, no matrix scaling.  Its default (automatic ordering, scaling
@@ -213,10 +185,10 @@ def _channels(layouts: list[Layout], w: ca.SX, n: int) -> dict[str, ca.SX]:
     for L in layouts:
         X = ca.reshape(w[L.x_slice], L.nx, n)
         U = ca.reshape(w[L.u_slice], L.nu, n - 1)
-        for i, name in enumerate(L.vehicle.channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).state_channels(L.vehicle)):
             out[name] = X[i, :]
         Up = ca.horzcat(U, U[:, -1])
-        for i, name in enumerate(L.vehicle.input_channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).input_channels(L.vehicle)):
             out[name] = Up[i, :]
     return out
 
@@ -267,7 +239,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         g_list.append(ca.vec(X[:, 1:] - F(X[:, :-1], U)))
         lbg.append(np.zeros(L.nx * N))
         ubg.append(np.zeros(L.nx * N))
-        b = envelope(v, vm.bounds(v))
+        b = vm.envelope(v, vm.bounds(v))
         lbx[L.x_slice] = np.tile(b.x_lo, n)
         ubx[L.x_slice] = np.tile(b.x_hi, n)
         lbx[L.u_slice] = np.tile(b.u_lo, N)
@@ -334,10 +306,10 @@ def trajectory_channels(w: np.ndarray, inv: InverseData) -> dict[str, np.ndarray
     for L in inv.layouts:
         X = np.asarray(w[L.x_slice]).reshape(n, L.nx).T
         U = np.asarray(w[L.u_slice]).reshape(n - 1, L.nu).T
-        for i, name in enumerate(L.vehicle.channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).state_channels(L.vehicle)):
             out[name] = X[i].copy()
         Up = np.hstack([U, U[:, -1:]])
-        for i, name in enumerate(L.vehicle.input_channels()):
+        for i, name in enumerate(vehicles.model_of(L.vehicle).input_channels(L.vehicle)):
             out[name] = Up[i].copy()
     return out
 

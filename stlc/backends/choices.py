@@ -149,3 +149,7 @@ def _walk(g: ir.Formula, times: np.ndarray, ev, index: dict, rows: dict) -> None
         case ir.And(args) | ir.Or(args):
             for c in args:
                 _walk(c, times, ev, index, rows)
+        case ir.Pred() | ir.TrueF() | ir.FalseF():
+            pass
+        case _:
+            raise TypeError(f"_walk: not a formula node in negation normal form: {g!r}")

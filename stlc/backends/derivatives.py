@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
-from stlc.planning import dynamics
+from stlc.vehicles import dynamics
 
 CHUNK_ROWS = 256
 MAX_THREADS = 4

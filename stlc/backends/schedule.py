@@ -165,9 +165,7 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
         P, V, A = kin[v.name]
         vm = vehicles.model_of(v)
         X, U = vm.guess(v, P, V, A, inv.grid.dt)
-        if vm.kind == "multirotor":  # its guessed force rates may exceed the envelope
-            lo, hi = prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu]
-            U = np.clip(U, lo[:, None], hi[:, None])
+        U = vm.fit_guess_inputs(v, U, prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu])
         w[L.x_slice] = X.T.ravel()
         w[L.u_slice] = U.T.ravel()
     return fill_aux(prob, inv, w, program.params, lam)

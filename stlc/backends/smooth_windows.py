@@ -154,7 +154,9 @@ def _child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
             return [(left, _union(k, last)), (right, _union(first, last))]
         case ir.Next(c):
             return [(c, k[k + 1 < n] + 1)]
-    return []
+        case ir.Pred() | ir.TrueF() | ir.FalseF():
+            return []
+    raise LoweringError(f"not a formula node in negation normal form: {type(f).__name__}")
 
 
 def _fan_in(f: ir.Formula, grid: TimeGrid) -> int:
@@ -162,7 +164,7 @@ def _fan_in(f: ir.Formula, grid: TimeGrid) -> int:
     whole window, unclipped), ≥ 1."""
     if isinstance(f, ir.And | ir.Or):
         return max(1, len(f.args))
-    if isinstance(f, ir.Always | ir.Eventually | ir.Until | ir.Release):
+    if isinstance(f, ir.WINDOWED):
         a, b = grid.window(f.lo, f.hi)
         return max(1, (b - a + 1) if isinstance(f, ir.Always | ir.Eventually) else b + 2)
     return 1

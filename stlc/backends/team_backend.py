@@ -26,18 +26,13 @@ import numpy as np
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
 from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
-from stlc.output.solution import Comparison, Solution, Verdict
+from stlc.planning.solution import Comparison, Solution, Verdict
 from stlc.planning.bounds import stated_bounds
 from stlc.planning.problem import PlanningProblem
-from stlc.semantics import ir
+from stlc.semantics.specs import reads_payload
 
 _CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
                      functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}))
-
-
-def reads_payload(requirement: ir.Formula) -> bool:
-    """The requirement reads a drone's payload: a team mission (paper B)."""
-    return any(s.endswith(".payload") for s in ir.signals(requirement))
 
 
 def is_team_mission(problem: PlanningProblem) -> bool:

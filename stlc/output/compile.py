@@ -13,10 +13,9 @@ import json
 import os
 import sys
 
-from stlc.output.solution import Solution
+from stlc.output.solution import solution_json, trajectory_csv
+from stlc.planning.solution import Solution
 from stlc.semantics import model
-
-EXIT_OK, EXIT_UNSAT = 0, 3
 
 
 # ---------------------------------------------------------------- outputs
@@ -39,9 +38,9 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
         if extra is not None:
             extra(tmp)
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
-            fh.write(sol.to_json())
+            fh.write(solution_json(sol))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
-            fh.write(sol.trajectory_csv())
+            fh.write(trajectory_csv(sol))
         if sol.routes:
             from stlc.backends.team_backend import solution_plan
             from stlc.team.refine import per_drone_csv
@@ -50,7 +49,7 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
                 with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
                     fh.write(text)
         if sol.risk is not None:
-            from stlc.output.solution import strict
+            from stlc.strictjson import strict
 
             with open(os.path.join(tmp, "risk.json"), "w") as fh:
                 json.dump(strict(sol.risk), fh, indent=2, allow_nan=False)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import sys
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.replan.result import SimulationResult
 from stlc.semantics import model
 

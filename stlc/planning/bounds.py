@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from stlc import vehicles
-from stlc.output.solution import Window
+from stlc.planning.solution import Window
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
@@ -78,6 +78,6 @@ def spec_windows(problem: PlanningProblem) -> list[Window]:
         g = spec.formula
         while isinstance(g, ir.And) and len(g.args) == 1:
             g = g.args[0]
-        if isinstance(g, (ir.Always, ir.Eventually, ir.Until)):
+        if isinstance(g, ir.WINDOWED):
             out.append(Window(name, g.lo, min(g.hi, problem.mission.horizon)))
     return out

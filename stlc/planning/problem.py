@@ -18,22 +18,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from stlc.diagnostics import Span
 from stlc.semantics import ir, model, nnf
+from stlc.semantics.specs import NamedSpec, mission_specs
 from stlc.semantics.timegrid import TimeGrid
 
 if TYPE_CHECKING:
-    from stlc.output.solution import Solution
+    from stlc.planning.solution import Solution
 
-
-@dataclass(frozen=True, slots=True)
-class NamedSpec:
-    """A named spec reported for a mission: the formula as written and its NNF."""
-
-    name: str
-    formula: ir.Formula
-    normal: ir.Formula
-    span: Span
+__all__ = ["NamedSpec", "PlanningProblem", "from_mission", "mission_specs"]
 
 
 def _frozen(d: Mapping | None = None) -> Mapping:
@@ -68,21 +60,6 @@ class PlanningProblem:
 
     def with_objective(self, objective: model.Objective) -> PlanningProblem:
         return replace(self, objective=objective, seed=None)
-
-
-def mission_specs(program: model.Program, mission: model.Mission) -> dict[str, NamedSpec]:
-    """Named specs reported for a mission: top-level specs about its vehicles, then its
-    own (a mission's spec shadows a top-level one of the same name)."""
-    out: dict[str, NamedSpec] = {}
-    team = set(mission.vehicles)
-    for name, f in program.specs.items():
-        used = {s.split(".")[0] for s in ir.signals(f)}
-        if used and used <= team:
-            out[name] = NamedSpec(name, f, nnf.normalize(f),
-                                  program.spec_spans.get(name, Span.none()))
-    for name, f in mission.specs.items():
-        out[name] = NamedSpec(name, f, nnf.normalize(f), mission.spec_spans.get(name, Span.none()))
-    return out
 
 
 def from_mission(program: model.Program, mission: model.Mission, *,

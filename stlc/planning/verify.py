@@ -12,14 +12,16 @@ whose robustness is below κ.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from stlc import vehicles
 from stlc.analysis import monitor, smooth
-from stlc.output.solution import Solution, SpecResult, Verdict
+from stlc.planning.solution import Solution, SpecResult, Verdict
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
-from stlc.semantics import ir
+from stlc.semantics.specs import reads_payload
 
 
 def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, list]:
@@ -31,7 +33,7 @@ def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, l
         if all(c in ch for c in vm.state_channels(v)):
             ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
     events: list = []
-    if any(s.endswith(".payload") for s in ir.signals(problem.requirement)):
+    if reads_payload(problem.requirement):
         from stlc.team.payload import payload_team
         from stlc.team.seed import scenario_from_program
 
@@ -44,43 +46,89 @@ def recompute_derived(problem: PlanningProblem, channels: dict) -> tuple[dict, l
     return ch, events
 
 
-def verify(problem: PlanningProblem, sol: Solution) -> Solution:
-    """Set the exact robustness, per-spec results, verdict and report data of ``sol``."""
+@dataclass
+class ComparisonVerdict:
+    """The exact monitor on one comparison plan."""
+
+    channels: dict  # derived signals recomputed
+    robustness_exact: float
+    specs: dict[str, float]
+    peak_speed: float
+    peak_rotor_speed: float
+
+
+@dataclass
+class Verification:
+    """What the exact monitor says of a plan (``judge``): nothing here comes from the
+    planner.  ``apply`` writes it onto the ``Solution`` for the outputs."""
+
+    channels: dict  # the plan's channels with every derived signal recomputed
+    events: list  # payload events (team missions)
+    robustness_exact: float
+    specs: dict[str, SpecResult]
+    status: str  # Verdict
+    notes: list[str]
+    comparisons: list[ComparisonVerdict]
+    bounds: dict
+    windows: list
+
+    def apply(self, sol: Solution) -> Solution:
+        sol.channels, sol.events = self.channels, self.events
+        sol.robustness_exact = self.robustness_exact
+        sol.specs.update(self.specs)
+        sol.status = self.status
+        sol.notes.extend(self.notes)
+        for c, v in zip(sol.comparisons, self.comparisons):
+            c.channels, c.robustness_exact, c.specs = v.channels, v.robustness_exact, v.specs
+            c.peak_speed, c.peak_rotor_speed = v.peak_speed, v.peak_rotor_speed
+        sol.bounds = self.bounds
+        sol.windows = self.windows
+        return sol
+
+
+def judge(problem: PlanningProblem, sol: Solution) -> Verification:
+    """The exact robustness, per-spec results, verdict and report data of the plan ``sol``
+    (``sol`` is not changed)."""
     dt = problem.grid.dt
     params = problem.params
     kappa = problem.threshold
     lam = float(sol.smoothing.get("lambda_final", problem.smoothing.lam))
     method = problem.smoothing.method
-    ch, sol.events = recompute_derived(problem, sol.channels)
-    sol.channels = ch
+    ch, events = recompute_derived(problem, sol.channels)
     exact = float(monitor.robustness(problem.requirement, dt, ch, params))
-    sol.robustness_exact = exact
+    specs = {}
     for name, spec in problem.specs.items():
         r, k, pred = monitor.binding(spec.normal, dt, ch, params)
-        sol.specs[name] = SpecResult(
+        specs[name] = SpecResult(
             robustness=float(r),
             smooth=float(smooth.smooth_robustness(spec.normal, dt, ch, params, lam, method)),
             satisfied=bool(r >= kappa),
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
-            line=spec.span.line)
-    if sol.status != Verdict.SOLVER_FAILED:
-        sol.status = (Verdict.SATISFIED if exact >= kappa and sol.feasible
-                      else Verdict.VIOLATED)
+            line=spec.span.line,
+            binding_line=pred.span.line if pred is not None and pred.span.known else 0)
+    status = sol.status
+    if status != Verdict.SOLVER_FAILED:
+        status = Verdict.SATISFIED if exact >= kappa and sol.feasible else Verdict.VIOLATED
+    notes = []
     if 0 <= exact < kappa:
-        sol.notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
-                         f"{kappa:g}: the margin fell short")
+        notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
+                     f"{kappa:g}: the margin fell short")
+    comparisons = []
     for c in sol.comparisons:
-        c.channels, _ = recompute_derived(problem, c.channels)
-        c.robustness_exact = float(monitor.robustness(problem.requirement, dt, c.channels,
-                                                      params))
-        c.specs = {name: float(monitor.robustness(s.normal, dt, c.channels, params))
-                   for name, s in problem.specs.items()}
-        c.peak_speed = _peak(c.channels, ".speed")
-        c.peak_rotor_speed = _peak(c.channels, ".rotor_speed.")
-    sol.bounds = plot_bounds(problem)
-    sol.windows = spec_windows(problem)
-    return sol
+        cch, _ = recompute_derived(problem, c.channels)
+        comparisons.append(ComparisonVerdict(
+            cch, float(monitor.robustness(problem.requirement, dt, cch, params)),
+            {name: float(monitor.robustness(s.normal, dt, cch, params))
+             for name, s in problem.specs.items()},
+            _peak(cch, ".speed"), _peak(cch, ".rotor_speed.")))
+    return Verification(ch, events, exact, specs, status, notes, comparisons,
+                        plot_bounds(problem), spec_windows(problem))
+
+
+def verify(problem: PlanningProblem, sol: Solution) -> Solution:
+    """``judge`` the plan and write the verdict onto ``sol`` (returned)."""
+    return judge(problem, sol).apply(sol)
 
 
 def _peak(ch: dict, key: str) -> float:

@@ -28,7 +28,7 @@ open is decided here):
   **full state** at the first waypoint of the T_g grid (samples at or after j·T_g) that lies
   at least T_g after s, so the segment lasts between T_g and 2T_g (less only at the end of
   the horizon, where the goal is the last sample; an event with no sample left after s is
-  reported as not run).  The NLP (``stlc.replan.segment``) keeps the specs of
+  reported as not run).  The segment backend (``stlc.backends.segment``, passed in as ``segment``) keeps the specs of
   ``cfg.specs`` on the segment's samples after s with margin κ, obeys the dynamics and
   bounds and minimises input effort and distance from the reference.
 * **Acceptance.**  A replan is flown iff IPOPT converged (optimal or acceptable), its wall
@@ -62,16 +62,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dataclasses import replace
+from types import MappingProxyType
+
 from stlc import vehicles
 from stlc.analysis import monitor
-from stlc.backends.base import SolverStatus
-from stlc.backends.casadi_nlp import substeps
-from stlc.planning import dynamics
+from stlc.backends.base import Backend, SolverStatus
+from stlc.planning.kept import Clause, KeptSpecError, kept_clauses
+from stlc.planning.solution import Solution, Verdict
 from stlc.planning.verify import recompute_derived
 from stlc.replan.result import ReplanEvent, SimulationResult
-from stlc.replan.segment import Clause, KeptSpecError, SegmentNlp, kept_clauses
 from stlc.semantics import model
 from stlc.semantics.timegrid import is_aligned, steps_ceil
+from stlc.vehicles import dynamics
 
 #: largest |state − goal| (any component, SI units) at the end of a flown replan
 REJOIN_TOL = 1e-4
@@ -94,7 +97,7 @@ class DisturbanceError(ValueError):
 @dataclass
 class _Track:
     """One vehicle: its reference (states n×nx, inputs (n−1)×nu), what it actually flies,
-    its kept clauses and (once built) its replanning NLP."""
+    its kept clauses, its segment backend and (once lowered) its replanning NLP."""
 
     vehicle: model.Vehicle
     ref_X: np.ndarray
@@ -104,7 +107,9 @@ class _Track:
     clauses: list[Clause]
     step: object  # the discrete dynamics (casadi Function)
     D: np.ndarray  # (n−1, nx) the reference's one-step defects x_{k+1} − F(x_k, u_k)
-    nlp: SegmentNlp | None = None
+    backend: Backend | None = None
+    segment: object = None  # the segment problem (one vehicle, kept specs, others fixed)
+    nlp: object = None  # the backend's lowered problem, built at the first event
     pos: slice = field(default_factory=lambda: slice(0, 3))
 
     def fly(self, x: np.ndarray, k: int) -> np.ndarray:
@@ -150,8 +155,11 @@ def _waypoint_goal(s: int, G: int, Tg: float, dt: float, last: int) -> int:
 
 
 def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
-                          cfg: model.ReplanConfig) -> SimulationResult:
-    """Fly ``plan`` under ``disturbances`` with event-triggered replanning (module doc)."""
+                          cfg: model.ReplanConfig, *, segment: type[Backend]
+                          ) -> SimulationResult:
+    """Fly ``plan`` under ``disturbances`` with event-triggered replanning (module doc).
+    ``segment`` is the replanning backend, built as ``segment(steps=M, budget=t_c,
+    integrator=...)`` once per vehicle (``stlc.backends.segment.SegmentBackend``)."""
     grid = problem.grid
     dt, n = grid.dt, grid.n
     disturbances = sorted(disturbances, key=lambda d: d.time)
@@ -162,7 +170,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
         vm = vehicles.model_of(v)
         ref_X = vehicles.state_matrix(v, plan.channels)[:n].copy()
         ref_U = _inputs(v, plan.channels, n)
-        step = dynamics.discrete_dynamics(vm.ode(v), dt, integrator, substeps(dt))
+        step = dynamics.discrete_dynamics(vm.ode(v), dt, integrator, dynamics.substeps(dt))
         D = (ref_X[1:] - np.asarray(step.map(n - 1)(ref_X[:-1].T, ref_U.T)).T if n > 1
              else np.zeros((0, ref_X.shape[1])))
         tracks[v.name] = _Track(v, ref_X, ref_U, np.zeros_like(ref_X), ref_U.copy(),
@@ -175,6 +183,9 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
              if not is_aligned(x, dt)]
     G = max(1, steps_ceil(cfg.waypoint_period, dt))
     M = 2 * G - 1
+    for tr in tracks.values():
+        tr.backend = segment(steps=M, budget=cfg.compute_budget, integrator=integrator)
+        tr.segment = _segment_problem(problem, plan, tr.vehicle, cfg)
     kicks: dict[int, list[model.Disturbance]] = {}
     for d in disturbances:
         kicks.setdefault(min(steps_ceil(d.time, dt), n - 1), []).append(d)
@@ -196,7 +207,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
                 ev = ReplanEvent(time=k * dt, vehicle=tr.vehicle.name, deviation=dev,
                                  triggered=dev > cfg.threshold)
                 if ev.triggered:
-                    _replan(problem, tr, ev, k, cfg, G, M, integrator)
+                    _replan(problem, tr, ev, k, cfg, G)
                 events.append(ev)
         if k < n - 1:
             for tr in tracks.values():
@@ -226,8 +237,37 @@ def _defect_note(tracks: dict[str, _Track], notes: list[str]) -> None:
                          "flight reproduces the plan")
 
 
+def _segment_problem(problem, plan, v: model.Vehicle, cfg: model.ReplanConfig):
+    """The problem a vehicle's segments share: that vehicle alone, the kept specs, the
+    other vehicles' plans held fixed."""
+    own = set(vehicles.model_of(v).all_channels(v))
+    others = {c: a for c, a in plan.channels.items()
+              if c.split(".")[0] in problem.team and c not in own}
+    specs = {name: problem.specs[name] for name in cfg.specs if name in problem.specs}
+    return replace(problem, team=(v.name,), specs=MappingProxyType(specs),
+                   fixed_channels=MappingProxyType(others), seed=None)
+
+
+def _reference(problem, tr: _Track) -> Solution:
+    """The vehicle's current reference (the plan with every accepted replan) as a plan."""
+    vm = vehicles.model_of(tr.vehicle)
+    ch = {c: tr.ref_X[:, i] for i, c in enumerate(vm.state_channels(tr.vehicle))}
+    ch.update({c: tr.ref_U[:, i] for i, c in enumerate(vm.input_channels(tr.vehicle))})
+    return Solution(mission=problem.mission.name, status=Verdict.VIOLATED,
+                    robustness_exact=float("nan"), robustness_smooth=float("nan"), specs={},
+                    energy=0.0, times=problem.grid.times(), channels=ch)
+
+
+def _integrate(tr: _Track, x_start: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """States (L + 1, nx) from flying the inputs ``U`` (L, nu) open loop."""
+    X = [np.asarray(x_start, dtype=float)]
+    for u in U:
+        X.append(np.asarray(tr.step(X[-1], u)).ravel())
+    return np.array(X)
+
+
 def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfig,
-            G: int, M: int, integrator: str) -> None:
+            G: int) -> None:
     """Trigger at sample k: predict, solve, check, and splice if accepted (module doc)."""
     grid = problem.grid
     dt, n = grid.dt, grid.n
@@ -244,15 +284,18 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
     for j in range(k, s):
         pred.append(tr.fly(pred[-1], j))
     x_start = pred[-1]
-    build_s = None
-    if tr.nlp is None:
-        tr.nlp = SegmentNlp(tr.vehicle, dt, M, tr.clauses, dict(problem.params),
-                            problem.threshold, cfg.compute_budget, integrator)
-        build_s = tr.nlp.build_s
-    res = tr.nlp.solve(s, L, x_start, tr.ref_X[s:g + 1], tr.ref_U[s:g])
-    ev.solve_s, ev.status = res.solve_s, str(res.status)
-    ev.within_budget = res.solve_s <= cfg.compute_budget
-    flown = tr.nlp.integrate(x_start, res.U)
+    first = tr.nlp is None
+    if first:
+        tr.nlp, _ = tr.backend.lower(tr.segment)
+    event = replace(tr.segment, start_states=MappingProxyType({tr.vehicle.name: x_start}),
+                    window=(s * dt, g * dt), seed=_reference(problem, tr))
+    res = tr.backend.invert(tr.backend.solve(tr.nlp, event), tr.nlp, event)
+    status = SolverStatus(res.solver["status"])
+    vm = vehicles.model_of(tr.vehicle)
+    U = np.stack([res.channels[c][:L] for c in vm.input_channels(tr.vehicle)], axis=1)
+    ev.solve_s, ev.status = res.timing["solve_s"], str(status)
+    ev.within_budget = ev.solve_s <= cfg.compute_budget
+    flown = _integrate(tr, x_start, U)
     rejoin = float(np.max(np.abs(flown[-1] - tr.ref_X[g])))
     cand = tr.ref_X.copy()
     cand[k:s + 1] = np.array(pred)
@@ -260,27 +303,28 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
     ev.kept = _kept(problem, tr, cand, s + 1, g)
     kappa = problem.threshold
     kept_ok = all(r >= kappa for r in ev.kept.values())
-    ev.accepted = bool(res.status.converged and ev.within_budget and rejoin <= REJOIN_TOL
+    ev.accepted = bool(status.converged and ev.within_budget and rejoin <= REJOIN_TOL
                        and kept_ok)
-    ev.detail = {"iterations": res.iterations, "cpu_s": res.cpu_s,
-                 "return_status": res.return_status, "start_sample": s, "goal_sample": g,
-                 "steps": L, "rejoin_error": rejoin, "objective": res.objective,
+    ev.detail = {"iterations": res.solver["iterations"], "cpu_s": res.solver["cpu_s"],
+                 "return_status": res.solver["return_status"], "start_sample": s,
+                 "goal_sample": g, "steps": L, "rejoin_error": rejoin,
+                 "objective": res.solver["objective"],
                  "start_deviation": float(np.linalg.norm(x_start[tr.pos] - tr.ref_X[s, tr.pos])),
-                 "variables": tr.nlp.n_vars, "constraints": tr.nlp.ng}
-    if build_s is not None:
-        ev.detail["build_s"] = build_s
-    if res.status.converged:
-        vm = vehicles.model_of(tr.vehicle)
+                 "variables": res.problem_size["variables"],
+                 "constraints": res.problem_size["constraints"]}
+    if first:
+        ev.detail["build_s"] = res.timing["build_s"]
+    if status.converged:
         ev.times = grid.times()[s:g + 1]
         for i, c in enumerate(vm.state_channels(tr.vehicle)):
             ev.channels[c] = flown[:, i].copy()
-        Up = np.vstack([res.U, res.U[-1:]])
+        Up = np.vstack([U, U[-1:]])
         for i, c in enumerate(vm.input_channels(tr.vehicle)):
             ev.channels[c] = Up[:, i].copy()
     if ev.accepted:
         tr.ref_X = cand
         tr.ref_U = tr.ref_U.copy()
-        tr.ref_U[s:g] = res.U
+        tr.ref_U[s:g] = U
         tr.D = tr.D.copy()
         tr.D[s:g] = 0.0  # the segment is an exact solution of the model
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stlc.output.solution import channels_csv, json_number, strict_dumps
+from stlc.strictjson import channels_csv, json_number, strict_dumps
 
 
 @dataclass

@@ -25,7 +25,7 @@ Semantics (the decisions the paper leaves open):
   at t_fail, when the drone leaves the target); one in progress (shorter) does not, and its
   target is pending.
 * **The backup** waits at its start, at rest, until t0, carrying its full capacity; on
-  [t0, T_N] it flies the plan of ``stlc.replan.takeover_plan`` (the team MILP, seed and
+  [t0, T_N] it flies the plan of ``stlc.backends.backup`` (the team MILP, seed and
   refinement on the reduced problem, the other drones' plans and the parked failed drone
   fixed in the separation rows).
 * **Judgement.** The executed trajectory (the other drones' plans, the failed drone then
@@ -56,7 +56,7 @@ import numpy as np
 
 from stlc.backends.base import SolverStatus
 from stlc.replan.result import ReplanEvent, SimulationResult
-from stlc.replan.takeover_plan import BackupPlan, Fixed, plan_backup
+from stlc.planning.takeover import BackupPlan, Fixed
 from stlc.semantics import model
 from stlc.team import Drone, TeamScenario, centre
 
@@ -91,7 +91,7 @@ def validate(problem, plan, failure: model.Failure, cfg: model.ReplanConfig) -> 
     if b in problem.team:
         raise TakeoverError(f"backup `{b}` is already in the team of mission `{m.name}`", b)
     v = prog.vehicles[b]
-    if vehicles.model_of(v).kind != "point_mass":
+    if not vehicles.model_of(v).carries_payload(v):
         raise TakeoverError(f"backup `{b}` is a {vehicles.model_of(v).kind}; the takeover "
                             "plans point-mass drones", b)
     if v.capacity is None or v.capacity < 1:
@@ -153,12 +153,15 @@ def parking_station(sc: TeamScenario, home: str | None, others: dict[str, np.nda
 def retire(problem, plan, failure: model.Failure, backup_start) -> dict:
     """The team's kinematic channels with the failed drone parked from the sample after
     t_fail, where it is parked, and its pending and installed targets (module docstring)."""
-    from stlc.backends.team_backend import team_scenario
+    from stlc.planning.bounds import stated_bounds
     from stlc.planning.verify import recompute_derived
+    from stlc.team.seed import scenario_from_program
 
     f, dt = failure.vehicle, problem.grid.dt
     n = len(plan.times)
-    base = team_scenario(problem)
+    # the scenario the team chain planned on (it was built once already: no error here)
+    base = scenario_from_program(problem.program, problem.mission, separation=float(
+        stated_bounds(problem.requirement).get("distance_min", 0.0)))
     k_f = min(n - 1, int(math.floor(failure.time / dt + 1e-9)))
     raw: dict[str, np.ndarray] = {}
     for d in problem.team:
@@ -191,15 +194,14 @@ def free_stations(sc: TeamScenario, exclude: str, fixed: list[Fixed]) -> list[st
 
 
 def simulate_failure(problem, plan, failure: model.Failure,
-                     cfg: model.ReplanConfig | None = None, *,
+                     cfg: model.ReplanConfig | None = None, *, planner,
                      energy: bool = False) -> SimulationResult:
     """Simulate ``failure`` on the team ``plan`` of ``problem`` (``stlc.pipeline.plan``).
 
     ``energy`` adds the mission's forward-speed term (eq. 9) to the backup's refinement; off
     by default: that second IPOPT solve roughly doubles the replan time for a cost term,
-    not a spec."""
-    from stlc.backends.team_backend import forward_speed_target
-
+    not a spec.  ``planner`` plans the backup (``stlc.backends.backup.BackupPlanner``, given
+    by the pipeline)."""
     cfg = cfg if cfg is not None else model.ReplanConfig()
     backup = validate(problem, plan, failure, cfg)
     f, b = failure.vehicle, backup.name
@@ -245,11 +247,11 @@ def simulate_failure(problem, plan, failure: model.Failure,
         fixed.append(Fixed(fdr, np.tile(centre(park_box), (n - k0, 1)), zero, zero))
         obj = problem.objective
         eta = obj.forward_weight if energy else 0.0
-        v_star = forward_speed_target(problem) if eta > 0 else None
+        v_star = planner.forward_speed(problem) if eta > 0 else None
         w0, c0 = time.perf_counter(), time.process_time()
         stations = free_stations(base, park, fixed)
         event.detail["stations"] = stations
-        bp = plan_backup(base, backup, pending, stations, fixed, float(times[-1] - t0),
+        bp = planner.plan(base, backup, pending, stations, fixed, float(times[-1] - t0),
                          lam=problem.smoothing.lam, kappa=problem.threshold,
                          eta=eta if v_star is not None else 0.0, v_star=v_star,
                          milp_budget_s=max(cfg.takeover_delay, 1.0))

@@ -256,6 +256,8 @@ FORMULA_NODES = (Pred, TrueF, FalseF, Not, And, Or, Implies, Always, Eventually,
                  Next)
 #: the node types that may remain after ``normalize``
 NNF_NODES = (Pred, TrueF, FalseF, And, Or, Always, Eventually, Until, Release, Next)
+#: the temporal nodes with a time window ``[lo, hi]`` (the one list of them)
+WINDOWED = (Always, Eventually, Until, Release)
 
 # --------------------------------------------------------------------------- utilities
 
@@ -287,7 +289,9 @@ def map_children(f: Formula, go) -> Formula:
             return type(f)(lo, hi, go(a), go(b), span)
         case Implies(a, b, span):
             return Implies(go(a), go(b), span)
-    return f
+        case Pred() | TrueF() | FalseF():
+            return f
+    raise TypeError(f"not a formula node: {f!r}")
 
 
 def horizon(f: Formula, dt: float) -> float:

@@ -25,75 +25,12 @@ from dataclasses import dataclass, field
 
 from stlc.diagnostics import Span
 from stlc.semantics.ir import Formula
+from stlc.vehicles.declared import AXES, Multirotor, PointMass, Rotor, Vehicle
+
+__all__ = ["AXES", "Multirotor", "PointMass", "Rotor", "Vehicle"]  # re-exported: declared in stlc.vehicles
 
 Vec3 = tuple[float, float, float]
 NO_SPAN = Span.none()
-
-AXES = ("x", "y", "z")
-
-
-@dataclass(frozen=True, slots=True)
-class Rotor:
-    position: Vec3  # in the body frame, m
-    axis: Vec3  # unit thrust direction in the body frame
-    spin: int  # +1 counter-clockwise seen from above (reaction torque -z), -1 clockwise
-
-
-@dataclass(frozen=True, slots=True)
-class Multirotor:
-    name: str
-    mass: float
-    inertia: tuple[Vec3, Vec3, Vec3]
-    c_f: float  # rotor force = c_f * Omega, Omega = (rotor speed in Hz)^2
-    c_tau: float  # drag torque = c_tau * Omega
-    force_min: float
-    force_max: float
-    rotors: tuple[Rotor, ...]
-    start_pos: Vec3
-    start_att: Vec3 = (0.0, 0.0, 0.0)
-    start_vel: Vec3 = (0.0, 0.0, 0.0)
-    start_rate: Vec3 = (0.0, 0.0, 0.0)
-    dforce_max: float | None = None  # bound on |ξ̇| (N/s), optional
-    gravity: float = 9.81
-    span: Span = field(default=NO_SPAN, compare=False)
-
-    kind = "multirotor"
-
-    def channels(self) -> list[str]:
-        n = len(self.rotors)
-        out = [f"{self.name}.{f}.{a}" for f in ("pos", "att", "vel", "rate") for a in AXES]
-        out += [f"{self.name}.force.{i + 1}" for i in range(n)]
-        return out
-
-    def input_channels(self) -> list[str]:
-        return [f"{self.name}.dforce.{i + 1}" for i in range(len(self.rotors))]
-
-
-@dataclass(frozen=True, slots=True)
-class PointMass:
-    name: str
-    vel_max: Vec3
-    acc_max: Vec3
-    start_pos: Vec3
-    start_vel: Vec3 = (0.0, 0.0, 0.0)
-    capacity: int | None = None
-    mass: float | None = None
-    #: paper B eq. 8 data for the energy-aware forward speed v*: (rotors, rotor disk area m²,
-    #: equivalent flat-plate area m², induced-power factor, air density kg/m³), or None
-    aero: tuple[int, float, float, float, float] | None = None
-    span: Span = field(default=NO_SPAN, compare=False)
-
-    kind = "point_mass"
-
-    def channels(self) -> list[str]:
-        return [f"{self.name}.{f}.{a}" for f in ("pos", "vel") for a in AXES]
-
-    def input_channels(self) -> list[str]:
-        return [f"{self.name}.acc.{a}" for a in AXES]
-
-
-Vehicle = Multirotor | PointMass
-
 
 @dataclass(frozen=True, slots=True)
 class Box:

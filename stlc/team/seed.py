@@ -149,7 +149,7 @@ def scenario_from_program(program: model.Program, mission: model.Mission, *,
     drones = []
     for name in mission.vehicles:
         v = program.vehicles[name]
-        if vehicles.model_of(v).kind != "point_mass":
+        if not vehicles.model_of(v).carries_payload(v):
             raise ScenarioError(f"vehicle {name} is a {v.kind}; team planning needs point-mass "
                                 "vehicles", reason="scenario", subject=name)
         if v.capacity is None:

@@ -15,10 +15,24 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
-from stlc.semantics import model
+from stlc.vehicles import declared as model
+from stlc.vehicles.declared import FormulaField
+from stlc.vehicles.dynamics import Bounds
 
 
 class VehicleModel(Protocol):
+    """What a pass may ask of a vehicle model.  Beyond the state layout, dynamics and
+    derived signals: ``formula_fields`` (the fields a formula may read beyond pos, vel,
+    speed, horizontal_speed, course), ``envelope`` (the planner's flight envelope added to
+    ``bounds``), ``fit_guess_inputs`` (a kinematic guess's inputs made to fit the
+    planner's input bounds), ``has_rotor_energy`` (an energy model exists),
+    ``carries_payload`` (a team drone with a recomputed payload), ``axis_limits``
+    (per-axis limits drawn by the report, e.g. {"vel": v_max, "acc": a_max}),
+    ``rotor_forces`` ((force_min, force_max, c_f) of rotors, or None) and ``linear_model``
+    (``(A, B)`` of linear dynamics: continuous time ẋ = A x + B u without ``dt``, the
+    exact zero-order-hold discretisation x+ = A x + B u with ``dt``; ``None`` for a
+    nonlinear model)."""
+
     kind: str  # the name written after `vehicle NAME :` in a file
 
     def state_size(self, v) -> tuple[int, int]: ...
@@ -39,6 +53,17 @@ class VehicleModel(Protocol):
     def guess(self, v, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
               ) -> tuple[np.ndarray, np.ndarray]: ...
     def plot_bounds(self, v) -> dict[str, list[float]]: ...
+    # asked instead of comparing the kind (issue 18):
+    def formula_fields(self, v) -> dict[str, FormulaField]: ...
+    def envelope(self, v, b: Bounds) -> Bounds: ...
+    def fit_guess_inputs(self, v, U: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                         ) -> np.ndarray: ...
+    def has_rotor_energy(self, v) -> bool: ...
+    def carries_payload(self, v) -> bool: ...
+    def axis_limits(self, v) -> dict[str, tuple[float, ...]]: ...
+    def rotor_forces(self, v) -> tuple[float, float, float] | None: ...
+    def linear_model(self, v, dt: float | None = None
+                     ) -> tuple[np.ndarray, np.ndarray] | None: ...
 
 
 _REGISTRY: dict[type, VehicleModel] = {}

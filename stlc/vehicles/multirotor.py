@@ -1,6 +1,6 @@
 """The rigid-body multirotor model (paper A eq. 1): state (p, η, v, ω, ξ), input ξ̇.
 
-The equations live in ``stlc.planning.dynamics``; this module is the model's entry in the vehicle
+The equations live in ``stlc.vehicles.dynamics``; this module is the model's entry in the vehicle
 registry: layout, bounds, start state, derived signals (speed, course, heading, rotor
 speed), energy (paper A eq. 5) and the guess built from a kinematic path.
 """
@@ -10,13 +10,21 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from stlc.analysis import geometry
-from stlc.planning import dynamics
-from stlc.semantics.model import AXES, Multirotor
+from stlc.vehicles import geometry
+from stlc.vehicles import dynamics
+from stlc.vehicles.declared import AXES, FormulaField, Multirotor
 
 POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), 12
 GUESS_VEL = 1.5  # m/s per axis for a multirotor's kinematic guess
 GUESS_ACC = 2.0  # m/s^2
+#: flight envelope added to a multirotor's own bounds by the planners, so that IPOPT cannot
+#: wander into the Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg,
+#: |body rate| <= 6 rad/s, |v| <= 5 m/s per axis, |dξ/dt| <= (force range) / 0.25 s unless
+#: the vehicle sets dforce_max
+ENVELOPE_TILT = np.deg2rad(60.0)
+ENVELOPE_RATE = 6.0
+ENVELOPE_VEL = 5.0
+ENVELOPE_DFORCE_TIME = 0.25
 
 
 class MultirotorModel:
@@ -98,6 +106,55 @@ class MultirotorModel:
 
     def plot_bounds(self, v: Multirotor) -> dict[str, list[float]]:
         return {"force": [v.force_min, v.force_max]}
+
+    def formula_fields(self, v: Multirotor) -> dict[str, FormulaField]:
+        n = v.name
+        idx = tuple(str(i + 1) for i in range(len(v.rotors)))
+
+        def vec(field: str, dim, names=AXES) -> FormulaField:
+            chans = tuple(f"{n}.{field}.{a}" for a in names)
+            return FormulaField(dim, chans, chans, True)
+
+        return {
+            "att": vec("att", (0, 0, 0, 1)),
+            "rate": vec("rate", (0, 0, -1, 1)),
+            "heading": FormulaField((0, 0, 0, 1), (f"{n}.att.z",), (f"{n}.heading",), False),
+            "force": vec("force", (1, 1, -2, 0), idx),
+            "dforce": vec("dforce", (1, 1, -3, 0), idx),
+            "rotor_speed": FormulaField((0, 0, -1, 0), tuple(f"{n}.force.{i}" for i in idx),
+                                        tuple(f"{n}.rotor_speed.{i}" for i in idx), True,
+                                        sqrt_of_ratio=v.c_f),
+        }
+
+    def envelope(self, v: Multirotor, b: dynamics.Bounds) -> dynamics.Bounds:
+        x_lo, x_hi, u_lo, u_hi = (np.array(a, dtype=float)
+                                  for a in (b.x_lo, b.x_hi, b.u_lo, b.u_hi))
+        x_lo[3:5], x_hi[3:5] = -ENVELOPE_TILT, ENVELOPE_TILT
+        x_lo[6:9], x_hi[6:9] = -ENVELOPE_VEL, ENVELOPE_VEL
+        x_lo[9:12], x_hi[9:12] = -ENVELOPE_RATE, ENVELOPE_RATE
+        if v.dforce_max is None:
+            r = (v.force_max - v.force_min) / ENVELOPE_DFORCE_TIME
+            u_lo[:], u_hi[:] = -r, r
+        return dynamics.Bounds(x_lo, x_hi, u_lo, u_hi)
+
+    def fit_guess_inputs(self, v: Multirotor, U: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                         ) -> np.ndarray:
+        return np.clip(U, lo[:, None], hi[:, None])  # guessed force rates may exceed the envelope
+
+    def has_rotor_energy(self, v: Multirotor) -> bool:
+        return True
+
+    def carries_payload(self, v: Multirotor) -> bool:
+        return False
+
+    def axis_limits(self, v: Multirotor) -> dict[str, tuple[float, ...]]:
+        return {}
+
+    def rotor_forces(self, v: Multirotor) -> tuple[float, float, float]:
+        return v.force_min, v.force_max, v.c_f
+
+    def linear_model(self, v: Multirotor, dt: float | None = None) -> None:
+        return None  # rigid-body dynamics: nonlinear
 
 
 def _yaw_along_course(V: np.ndarray, yaw0: float, dt: float) -> np.ndarray:

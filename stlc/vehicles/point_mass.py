@@ -7,8 +7,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from stlc.planning import dynamics
-from stlc.semantics.model import PointMass
+from stlc.vehicles import dynamics
+from stlc.vehicles.declared import AXES, FormulaField, PointMass
 
 POS, VEL = slice(0, 3), slice(3, 6)
 
@@ -77,3 +77,40 @@ class PointMassModel:
 
     def plot_bounds(self, v: PointMass) -> dict[str, list[float]]:
         return {"speed_axis": list(v.vel_max)}
+
+    def formula_fields(self, v: PointMass) -> dict[str, FormulaField]:
+        n = v.name
+        acc = tuple(f"{n}.acc.{a}" for a in AXES)
+        return {"acc": FormulaField((1, 0, -2, 0), acc, acc, True),
+                "payload": FormulaField(None, (f"{n}.payload",), (f"{n}.payload",), False)}
+
+    def envelope(self, v: PointMass, b: dynamics.Bounds) -> dynamics.Bounds:
+        return b  # the declared per-axis bounds are the whole envelope
+
+    def fit_guess_inputs(self, v: PointMass, U: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                         ) -> np.ndarray:
+        return U
+
+    def has_rotor_energy(self, v: PointMass) -> bool:
+        return False
+
+    def carries_payload(self, v: PointMass) -> bool:
+        return True
+
+    def axis_limits(self, v: PointMass) -> dict[str, tuple[float, ...]]:
+        return {"vel": tuple(v.vel_max), "acc": tuple(v.acc_max)}
+
+    def rotor_forces(self, v: PointMass) -> None:
+        return None
+
+    def linear_model(self, v: PointMass, dt: float | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """State (p, v), input a.  Without ``dt``: continuous time, ẋ = A x + B u.  With
+        ``dt``: the exact discretisation for an input held over each step,
+        x[k+1] = A x[k] + B u[k] (which RK4 reproduces exactly: the flow is a polynomial of
+        degree 2 in time)."""
+        eye, zero = np.eye(3), np.zeros((3, 3))
+        if dt is None:
+            return np.block([[zero, eye], [zero, zero]]), np.vstack([zero, eye])
+        return (np.block([[eye, dt * eye], [zero, eye]]),
+                np.vstack([0.5 * dt * dt * eye, dt * eye]))

@@ -12,7 +12,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission
 
 

@@ -95,17 +95,6 @@ def readable(label: str) -> str:
     return _pretty(core)
 
 
-def predicate_line(formula: ir.Formula | None, label: str) -> int:
-    """Source line of the predicate of ``formula`` whose label is ``label`` (0 if unknown)."""
-    if formula is None or not label:
-        return 0
-    core, _ = _strip_not(label)
-    for p in ir.predicates(formula):
-        if _strip_not(p.label)[0] == core and p.span.known:
-            return p.span.line
-    return 0
-
-
 def hover_speed(formula: ir.Formula | None) -> float | None:
     """The ``horizontal_speed <= c`` of a heading requirement (below it the vehicle counts
     as hovering and its direction of motion is undefined), if the mission states one."""

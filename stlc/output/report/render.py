@@ -27,7 +27,7 @@ import jinja2
 import numpy as np
 from markupsafe import Markup
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Program
 
 from .view import build_view

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Program
 
 from .common import drone_color, fmt, num, nums

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics import ir
 from stlc.semantics.model import Box, Human, Mission, Program
 

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.planning.bounds import bound_specs, stated_bounds
 from stlc.semantics import ir, nnf
 from stlc.semantics.model import Mission, Program
@@ -47,7 +47,7 @@ def windows(mission: Mission, sol: Solution, formulas: dict[str, ir.Formula]) ->
         for name, f in formulas.items():
             while isinstance(f, ir.And) and len(f.args) == 1:
                 f = f.args[0]
-            if isinstance(f, ir.Always | ir.Eventually | ir.Until | ir.Release):
+            if isinstance(f, ir.WINDOWED):
                 out.append({"spec": name, "start": num(f.lo),
                             "end": num(min(f.hi, mission.horizon))})
     colors: dict[str, str] = {}
@@ -175,18 +175,19 @@ class _Builder:
                                 for s in ("speed", "vel", "horizontal_speed")))
 
     def point_mass_limits(self) -> None:
-        for field, title, unit, lim in (("vel", "Velocity", "m/s", "vel_max"),
-                                        ("acc", "Acceleration", "m/s²", "acc_max")):
+        for field, title, unit in (("vel", "Velocity", "m/s"),
+                                   ("acc", "Acceleration", "m/s²")):
             traces, bnds = [], []
             for v in self.vehicles:
                 veh = self.program.vehicles.get(v)
-                if veh is None or model_of(veh).kind != "point_mass":
+                axis = {} if veh is None else model_of(veh).axis_limits(veh)
+                if field not in axis:
                     continue
                 for a in "xyz":
                     c = channel(self.sol, f"{v}.{field}.{a}")
                     if c is not None:
                         traces.append({"name": self.tag(v, f"{field}.{a}"), "y": nums(c)})
-                limits = sorted({float(x) for x in getattr(veh, lim) if math.isfinite(x)})
+                limits = sorted({float(x) for x in axis[field] if math.isfinite(x)})
                 for x in limits:
                     sym = "v̄" if field == "vel" else "ā"
                     bnds += self.line(x, sym, unit=unit) + self.line(-x, f"−{sym}", bare=True)
@@ -205,14 +206,15 @@ class _Builder:
                 traces.append({"name": self.tag(v, "rotor " + name.rsplit(".", 1)[1]),
                                "y": nums(c)})
             veh = self.program.vehicles.get(v)
-            if veh is not None and model_of(veh).kind == "multirotor" and veh.c_f > 0 and rs:
-                lo_f = veh.force_min if f_lo is None else f_lo
-                hi_f = veh.force_max if f_hi is None else f_hi
+            rf = None if veh is None else model_of(veh).rotor_forces(veh)
+            if rf is not None and rf[2] > 0 and rs:
+                lo_f = rf[0] if f_lo is None else f_lo
+                hi_f = rf[1] if f_hi is None else f_hi
                 if lo_f is not None and lo_f > 0:
-                    bnds += self.line(math.sqrt(lo_f / veh.c_f), f"ξ min {fmt(lo_f)} N ≙",
+                    bnds += self.line(math.sqrt(lo_f / rf[2]), f"ξ min {fmt(lo_f)} N ≙",
                                       "soft", unit="Hz")
                 if hi_f is not None and hi_f > 0:
-                    bnds += self.line(math.sqrt(hi_f / veh.c_f), f"ξ max {fmt(hi_f)} N ≙",
+                    bnds += self.line(math.sqrt(hi_f / rf[2]), f"ξ max {fmt(hi_f)} N ≙",
                                       "soft", unit="Hz")
         self.add("sig-rotor", "Rotor speeds", "Hz", traces, bnds,
                  prefixes=tuple(f"{v}.rotor_speed" for v in self.vehicles))
@@ -224,8 +226,9 @@ class _Builder:
             for name, c in indexed(self.sol, f"{v}.force"):
                 traces.append({"name": self.tag(v, "ξ" + name.rsplit(".", 1)[1]), "y": nums(c)})
             veh = self.program.vehicles.get(v)
-            if f_lo is None and veh is not None and model_of(veh).kind == "multirotor":
-                f_lo, f_hi = veh.force_min, veh.force_max
+            rf = None if veh is None else model_of(veh).rotor_forces(veh)
+            if f_lo is None and rf is not None:
+                f_lo, f_hi = rf[0], rf[1]
         self.add("sig-force", "Rotor forces", "N", traces,
                  self.line(f_lo, "ξ min", unit="N") + self.line(f_hi, "ξ max", unit="N"),
                  prefixes=tuple(f"{v}.force" for v in self.vehicles))

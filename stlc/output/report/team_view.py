@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Program
 
 from .common import channel, drone_color, fmt, num, nums, vehicles

@@ -25,12 +25,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Objective, Program
 from stlc.vehicles import model_of
 
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
-from .predicates import predicate_line, readable
+from .predicates import readable
 from .replan_view import replan
 from .risk_view import risk
 from .scene import scene
@@ -72,7 +72,7 @@ def energy(program: Program, mission: Mission, sol: Solution) -> dict:
     """The ``energy`` section of the view model."""
     t = np.asarray(sol.times, float)
     names = vehicles(mission, sol)
-    modelled = any(model_of(program.vehicles[v]).kind == "multirotor"
+    modelled = any(model_of(program.vehicles[v]).has_rotor_energy(program.vehicles[v])
                    for v in names if v in program.vehicles)
 
     def axis(n: int) -> list[float | None]:
@@ -212,11 +212,10 @@ def _spec_line(program: Program, mission: Mission, name: str, given: int) -> tup
 def _spec_rows(program: Program, mission: Mission, sol: Solution,
                wins: list[dict]) -> list[dict]:
     n_lines = len(program.source.splitlines())
-    formulas = spec_formulas(program, mission, sol)
     rows = []
     for name, r in sol.specs.items():
         line, end_line = _spec_line(program, mission, name, r.line)
-        pline = predicate_line(formulas.get(name), r.binding_predicate)
+        pline = r.binding_line
         win = [w for w in wins if w["spec"] == name]
         rows.append({
             "name": name,

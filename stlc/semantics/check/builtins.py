@@ -260,7 +260,7 @@ def _normal(el: Context, n: ast.Call, scope: Scope) -> Value:
 
 def _rotor_geometry(kind: str):
     def f(el: Context, n: ast.Call, scope: Scope) -> Value:
-        from stlc.analysis import geometry
+        from stlc.vehicles import geometry
 
         if n.args:
             return el.err("STL206", f"`{kind}` takes keyword arguments, e.g. "

@@ -406,7 +406,7 @@ def misaligned_intervals(f: ir.Formula, step: float) -> Iterator[tuple[ir.Formul
     stack = [f]
     while stack:
         g = stack.pop()
-        if isinstance(g, (ir.Always, ir.Eventually, ir.Until, ir.Release)):
+        if isinstance(g, ir.WINDOWED):
             bad = [t for t in (g.lo, g.hi) if misaligned(t, step)]
             if bad:
                 yield g, bad[0]

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from stlc import vehicles
 from stlc.diagnostics import Span, did_you_mean
 from stlc.frontend import ast
 from stlc.semantics import model
@@ -41,13 +42,12 @@ def vehicle(ck: Context, b: ast.Block) -> None:
     if not ck.define(name, b.name_span, "vehicle"):
         return
     ck.failed.add(name)  # until it checks
-    if b.model == "multirotor":
-        v = _multirotor(ck, b)
-    elif b.model == "point_mass":
-        v = _point_mass(ck, b)
+    reader = READERS.get(b.model or "")
+    if reader is not None:
+        v = reader(ck, b)
     else:
-        hint = did_you_mean(b.model or "", ["multirotor", "point_mass"]) or \
-            "models: multirotor, point_mass"
+        hint = did_you_mean(b.model or "", vehicles.kinds()) or \
+            "models: " + ", ".join(vehicles.kinds())
         if b.model == "motion_primitive":  # paper B's term: its drones are point masses
             hint = ("paper B's drones are `point_mass` vehicles; the team planner builds "
                     "their rest-to-rest motion primitives")
@@ -129,7 +129,7 @@ def _multirotor(ck: Context, b: ast.Block) -> model.Multirotor | None:
 
 
 def _check_hover(ck: Context, v: model.Multirotor, b: ast.Block) -> None:
-    from stlc.planning import dynamics
+    from stlc.vehicles import dynamics
 
     try:
         dynamics.hover_forces(v, check_bounds=True)
@@ -233,6 +233,12 @@ def _aero(ck: Context, b: ast.Block, f: dict, mass: float | None):
         return None
     return (int(vals["rotors"]), vals["disk_area"], vals["flat_plate_area"],
             vals["induced_factor"], vals.get("air_density", 1.225))
+
+
+#: the reader of each vehicle model's block, by the kind the registry knows it by
+#: (``stlc.vehicles.kinds()``; ``tests/test_architecture.py`` checks the two agree)
+READERS = {"multirotor": _multirotor, "point_mass": _point_mass}
+
 
 # ---------------------------------------------------------------- scenario
 

@@ -47,8 +47,6 @@ from stlc.vehicles import model_of
 
 BUILTIN_CONSTS = {"pi": (math.pi, units.DIMLESS), "inf": (math.inf, None),
                   "g0": (9.81, units.ACCEL)}
-FUNCTIONS = ("abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log", "atan2", "angdiff",
-             "dot", "dist", "box", "diag", "normal", "hexarotor", "quadrotor")
 AXIS_NAMES = {"x": 0, "y": 1, "z": 2, "roll": 0, "pitch": 1, "yaw": 2}
 
 
@@ -318,20 +316,11 @@ def vehicle_fields(v: model.Vehicle) -> dict[str, Value]:
         "horizontal_speed": scal(hspeed, units.SPEED, f"{n}.horizontal_speed"),
         "course": scal(ir.Call("atan2", (vy, vx)), units.ANGLE, f"{n}.course"),
     }
-    if model_of(v).kind == "multirotor":
-        k = len(v.rotors)
-        idx = tuple(str(i + 1) for i in range(k))
-        out["att"] = vec("att", units.ANGLE)
-        out["rate"] = vec("rate", (0, 0, -1, 1))
-        out["heading"] = scal(ir.Sig(f"{n}.att.z"), units.ANGLE, f"{n}.heading")
-        out["force"] = vec("force", units.FORCE, idx)
-        out["dforce"] = vec("dforce", (1, 1, -3, 0), idx)
-        out["rotor_speed"] = Sym(
-            tuple(ir.Call("sqrt", (div(ir.Sig(f"{n}.force.{i}"), const(v.c_f)),)) for i in idx),
-            units.FREQ, True, tuple(f"{n}.rotor_speed.{i}" for i in idx))
-    else:
-        out["acc"] = vec("acc", units.ACCEL)
-        out["payload"] = scal(ir.Sig(f"{n}.payload"), None, f"{n}.payload")
+    for name, fld in model_of(v).formula_fields(v).items():  # the model's own fields
+        items = tuple(ir.Sig(c) if fld.sqrt_of_ratio is None
+                      else ir.Call("sqrt", (div(ir.Sig(c), const(fld.sqrt_of_ratio)),))
+                      for c in fld.channels)
+        out[name] = Sym(items, fld.dim, fld.vector, fld.labels)
     return out
 
 

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from stlc.semantics.model import Rotor
+from stlc.vehicles.declared import Rotor
 
 #: entries of generated geometry / allocation smaller than this are trig round-off → 0
 _ROUND_OFF = 1e-12

@@ -1,4 +1,4 @@
-"""Benchmark of disturbance replanning: ``python -m stlc.replan.bench``.
+"""Benchmark of disturbance replanning: ``python -m stlc.bench.replan``.
 
 Plans ``handover_left_tb`` (``specs/handover.stl``) once — or loads the plan cached by an
 earlier run, or a ``trajectory.csv`` given with ``--trajectory`` — then
@@ -28,10 +28,11 @@ from collections import Counter
 import numpy as np
 
 from stlc.analysis import monitor
-from stlc.output.solution import Solution
+from stlc.planning.solution import Solution
 from stlc.planning.problem import from_mission
+from stlc.backends.segment import SegmentBackend
 from stlc.replan.disturb import simulate_disturbances
-from stlc.replan.segment import kept_clauses
+from stlc.planning.kept import kept_clauses
 from stlc.semantics import model
 
 
@@ -136,7 +137,7 @@ def summary(events, results, budget: float) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m stlc.replan.bench", description=__doc__)
+    ap = argparse.ArgumentParser(prog="python -m stlc.bench.replan", description=__doc__)
     ap.add_argument("--file", default="specs/handover.stl")
     ap.add_argument("--mission", default="handover_left_tb")
     ap.add_argument("--trajectory", help="a trajectory.csv to fly instead of compiling")
@@ -156,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     results, events, builds = [], [], []
     c0, w0 = time.process_time(), time.perf_counter()
     for i, d in enumerate(pushes):
-        r = simulate_disturbances(problem, plan, [d], cfg)
+        r = simulate_disturbances(problem, plan, [d], cfg, segment=SegmentBackend)
         results.append(r)
         for e in r.triggered:
             events.append(e)
@@ -173,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     print("\ntwo-disturbance demo (paper A Fig. 12): pushes of 1.1 m at 3 s (+y) and "
           "9 s (+x−y)")
     print(HEADER)
-    r = simulate_disturbances(problem, plan, demo, cfg)
+    r = simulate_disturbances(problem, plan, demo, cfg, segment=SegmentBackend)
     for e in r.triggered:
         print(_row("demo", e))
     for line in summary(r.triggered, [r], cfg.compute_budget):

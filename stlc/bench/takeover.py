@@ -1,4 +1,4 @@
-"""Benchmark of the backup-drone takeover (paper B §IV-C): ``python -m stlc.replan.takeover_bench``.
+"""Benchmark of the backup-drone takeover (paper B §IV-C): ``python -m stlc.bench.takeover``.
 
 Plans the team mission once (``stlc.pipeline.plan``), then for each failure time runs
 ``stlc.replan.takeover.simulate_failure`` ``--repeat`` times and prints one row per failure
@@ -26,10 +26,11 @@ SPEC = "specs/bird_diverter_2x7.stl"
 
 def main(argv: list[str] | None = None) -> int:
     from stlc import pipeline
+    from stlc.backends.backup import BackupPlanner
     from stlc.replan.takeover import GOAL_S, TARGET_S, simulate_failure
     from stlc.semantics import model
 
-    ap = argparse.ArgumentParser(prog="python -m stlc.replan.takeover_bench")
+    ap = argparse.ArgumentParser(prog="python -m stlc.bench.takeover")
     ap.add_argument("--file", default=None)
     ap.add_argument("--mission", default="bird_diverter_2x7")
     ap.add_argument("--fail", default="uav1")
@@ -57,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         runs = []
         for _ in range(max(1, args.repeat)):
             res = simulate_failure(problem, sol, model.Failure(args.fail, t_fail, args.backup),
-                                   cfg, energy=args.energy)
+                                   cfg, planner=BackupPlanner(), energy=args.energy)
             runs.append(res)
         ev = runs[-1].events[0]
         specs = specs or list(runs[-1].executed_robustness)

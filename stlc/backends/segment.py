@@ -1,4 +1,6 @@
-"""The replanning NLP of paper A §4.4: one vehicle, one segment, built once and reused.
+"""The replanning NLP of paper A §4.4: one vehicle, one segment, built once and reused,
+behind the ``Backend`` interface (``SegmentBackend``: ``lower`` once per mission and
+vehicle, ``solve`` per event).
 
 A segment replans a vehicle from a (predicted) start state at mission sample ``s`` to the
 reference's full state at a waypoint sample ``g = s + L``; it is the part of the
@@ -8,7 +10,7 @@ trajectory NLP that replanning needs and nothing more:
   with the plan's integrator at the mission step (``dynamics.discrete_dynamics``, same
   sub-steps as ``casadi_nlp``), multiple shooting, inputs held over each step; the state and
   input bounds (rotor forces, per-axis velocity/acceleration) and the flight envelope of
-  ``casadi_nlp.envelope``;
+  the vehicle model (``envelope``);
 * **a fixed number of intervals** ``M`` (the longest segment the waypoint rule can produce)
   with a *mask* parameter: ``x_{k+1} = x_k + m_k·(F(x_k, u_k) − x_k)``, ``m_k = 1`` for the
   ``L`` active steps and ``0`` after them, where the state is held.  So every segment lies on
@@ -45,11 +47,13 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
-from stlc.backends.base import SolverStatus
+from stlc.backends.base import ALL_FUNCTIONS, Backend, Capabilities, SolverStatus
 from stlc.backends.casadi_expr import ExprEnv, gkl_max, lower_expr, planner_form, smin
-from stlc.backends.casadi_nlp import STATUS_MAP, envelope, substeps
-from stlc.planning import dynamics
+from stlc.backends.casadi_nlp import STATUS_MAP, substeps
+from stlc.planning.kept import BODY_NODES, Clause, kept_clauses
+from stlc.planning.solution import Solution, Verdict
 from stlc.semantics import ir, model
+from stlc.vehicles import dynamics
 
 #: λ of the smooth max/min inside a kept spec's body (on scaled planner margins)
 KEPT_LAMBDA = 50.0
@@ -65,68 +69,6 @@ IPOPT_OPTIONS = {
     "ipopt.acceptable_constr_viol_tol": 1e-7, "ipopt.max_iter": 300,
     "ipopt.linear_solver": "mumps", "ipopt.mu_strategy": "adaptive",
 }
-
-
-class KeptSpecError(ValueError):
-    """A spec named in ``replan { keep = [...] }`` cannot be kept by a segment."""
-
-    def __init__(self, spec: str, message: str):
-        super().__init__(message)
-        self.spec = spec
-
-
-@dataclass(frozen=True)
-class Clause:
-    """``always[first, last] body`` of a kept spec, in mission samples, for one vehicle."""
-
-    spec: str
-    first: int
-    last: int
-    body: ir.Formula  # no temporal operator; NNF
-
-
-_BODY_NODES = (ir.Pred, ir.And, ir.Or, ir.TrueF, ir.FalseF)
-
-
-def kept_clauses(problem, names, vehicle: model.Vehicle) -> list[Clause]:
-    """The clauses of the kept specs ``names`` that read ``vehicle``'s signals.  Raises
-    ``KeptSpecError`` for an unknown spec, a spec that is not a conjunction of ``always``
-    over state predicates, or one that reads another vehicle or a non-state signal."""
-    grid = problem.grid
-    states = set(vehicles.model_of(vehicle).state_channels(vehicle))
-    owners = {v.name for v in problem.vehicles()}
-    out: list[Clause] = []
-    for name in names:
-        spec = problem.specs.get(name)
-        if spec is None:
-            raise KeptSpecError(name, f"`keep` names `{name}`, which is not a spec of mission "
-                                f"`{problem.mission.name}`")
-        f = spec.normal
-        parts = f.args if isinstance(f, ir.And) else (f,)
-        for part in parts:
-            if isinstance(part, ir.TrueF):
-                continue
-            if not isinstance(part, ir.Always) or not all(
-                    isinstance(g, _BODY_NODES) for g in ir.nodes(part.arg)):
-                raise KeptSpecError(name, f"kept spec `{name}` is not an `always` over state "
-                                    "predicates (or a conjunction of them): a replanning "
-                                    "segment can only keep such invariants")
-            sigs = ir.signals(part.arg)
-            users = {s.split(".")[0] for s in sigs}
-            if len(users) > 1 or not users <= owners:
-                raise KeptSpecError(name, f"kept spec `{name}` reads several vehicles "
-                                    f"({', '.join(sorted(users))}): a segment replans one "
-                                    "vehicle with the others' plans unchanged")
-            if users != {vehicle.name}:
-                continue
-            bad = sorted(sigs - states)
-            if bad:
-                raise KeptSpecError(name, f"kept spec `{name}` reads `{bad[0]}`, which is "
-                                    f"not a state of {vehicle.name}: only state predicates "
-                                    "can be kept on a segment")
-            a, b = grid.window(part.lo, part.hi)
-            out.append(Clause(name, max(a, 0), min(b, grid.n - 1), part.arg))
-    return out
 
 
 def _lower_body(f: ir.Formula, env: ExprEnv, top: bool) -> list:
@@ -186,7 +128,7 @@ class SegmentNlp:
         nxt = prev + ca.repmat(mask, nx, 1) * (F.map(M)(prev, U) - prev)
         g = [ca.vec(X - nxt), X[:, -1] - xg]
         self.n_eq = nx * M + nx
-        b = envelope(vehicle, vm.bounds(vehicle))
+        b = vm.envelope(vehicle, vm.bounds(vehicle))
         u_scale = np.where(np.isfinite(b.u_hi), np.maximum(np.abs(b.u_hi), np.abs(b.u_lo)), 1.0)
         # kept-spec rows, one block per clause, each M long (node-major inside a row)
         chans = {c: X[i, :] for i, c in enumerate(vm.state_channels(vehicle))}
@@ -262,3 +204,70 @@ class SegmentNlp:
         for u in U:
             X.append(np.asarray(self.step(X[-1], u)).ravel())
         return np.array(X)
+
+
+class SegmentBackend(Backend):
+    """The segment NLP as a backend.  Constructor settings: the number of intervals
+    ``steps`` (the longest segment), the compute ``budget`` (IPOPT's wall-time limit) and
+    the ``integrator``.
+
+    * ``lower(problem)``: ``problem.team`` is the one vehicle replanned, ``problem.specs``
+      the kept specs, ``problem.fixed_channels`` the other vehicles' plans (so a kept spec
+      about them is not this segment's); builds the NLP once;
+    * ``solve(lowered, event)``: ``event.start_states[v]`` the predicted start state,
+      ``event.window`` (t_s, t_g) on the mission grid, ``event.seed`` the current
+      reference (states and inputs by channel name): the goal is its state at t_g, its
+      path the cost and the guess;
+    * ``invert``: a ``Solution`` on the window's samples (the NLP's states, its inputs held
+      over each step, the last repeated) with the solver log.
+    """
+
+    name = "segment nlp"
+    capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
+                                nodes=frozenset({ir.Always, *BODY_NODES}),
+                                functions=ALL_FUNCTIONS, team=False)
+    STATUS_MAP = STATUS_MAP
+
+    def __init__(self, steps: int, budget: float, integrator: str = "rk4"):
+        self.steps, self.budget, self.integrator = steps, budget, integrator
+
+    def accepts(self, problem) -> list:
+        return []  # ``kept_clauses`` refuses what a segment cannot keep (KeptSpecError)
+
+    def lower(self, problem):
+        v = problem.vehicles()[0]
+        clauses = kept_clauses(problem, tuple(problem.specs), v)
+        nlp = SegmentNlp(v, problem.grid.dt, self.steps, clauses, dict(problem.params),
+                         problem.threshold, self.budget, self.integrator)
+        return nlp, nlp
+
+    def solve(self, nlp: SegmentNlp, problem) -> tuple[SegmentResult, int, int]:
+        v = problem.vehicles()[0]
+        vm = vehicles.model_of(v)
+        dt = problem.grid.dt
+        s, g = (int(round(t / dt)) for t in problem.window)
+        ref = problem.seed.channels
+        ref_X = np.stack([np.asarray(ref[c], float)[s:g + 1] for c in vm.state_channels(v)],
+                         axis=1)
+        ref_U = np.stack([np.asarray(ref[c], float)[s:g] for c in vm.input_channels(v)],
+                         axis=1)
+        return nlp.solve(s, g - s, np.asarray(problem.start_states[v.name]), ref_X, ref_U), s, g
+
+    def invert(self, raw, nlp: SegmentNlp, problem) -> Solution:
+        res, s, g = raw
+        v = problem.vehicles()[0]
+        vm = vehicles.model_of(v)
+        ch = {c: res.X[:, i].copy() for i, c in enumerate(vm.state_channels(v))}
+        Up = np.vstack([res.U, res.U[-1:]])
+        ch.update({c: Up[:, i].copy() for i, c in enumerate(vm.input_channels(v))})
+        return Solution(
+            mission=problem.mission.name, status=Verdict.VIOLATED,
+            robustness_exact=float("nan"), robustness_smooth=float("nan"), specs={},
+            energy=0.0, times=problem.grid.times()[s:g + 1], channels=ch,
+            timing={"solve_s": res.solve_s, "build_s": nlp.build_s},
+            solver={"name": self.name, "status": str(res.status),
+                    "converged": res.status.converged, "return_status": res.return_status,
+                    "iterations": res.iterations, "cpu_s": res.cpu_s,
+                    "objective": res.objective, **res.detail},
+            problem_size={"variables": nlp.n_vars, "constraints": nlp.ng})
+

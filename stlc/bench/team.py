@@ -6,7 +6,7 @@ mission does not give them), and prints: the MILP CPU time (median of 3 solves),
 rounds, objective, the seed's CPU time, per drone the route and the payload events derived
 from the seed's positions by the payload rule, and the minimum payload.
 
-    python -m stlc.team.bench specs/bird_diverter_2x7.stl
+    python -m stlc.bench.team specs/bird_diverter_2x7.stl
 
 ``scaling(paths, repeats)`` times the whole ``stlc compile`` (parse, assignment, seed,
 refinement, verification, outputs) of each file in a child process, ``repeats`` times, and
@@ -14,7 +14,7 @@ prints per run and as medians: wall time, CPU time of the child (user + system, 
 ``resource.getrusage``; the machine is shared, so CPU is the steadier number), the
 assignment method and time, IPOPT iterations and status, verdict and exact robustness:
 
-    python -m stlc.team.bench --compile specs/bird_diverter_2x7.stl specs/bird_diverter_4x11.stl
+    python -m stlc.bench.team --compile specs/bird_diverter_2x7.stl specs/bird_diverter_4x11.stl
 
 ``formulations(paths, repeats, budget)`` solves the assignment of each mission with every
 formulation (``routes``: column generation, the default; ``arcs``: lazy cuts; ``trips``:
@@ -22,7 +22,7 @@ the trip model of ``stlc.team.partition``) within ``budget`` wall seconds, and p
 instance and formulation the median wall and CPU time, the objective, the lower bound and
 whether optimality was proved (else the gap):
 
-    python -m stlc.team.bench --formulations tests/missions/bird_diverter_3x9.stl
+    python -m stlc.bench.team --formulations tests/missions/bird_diverter_3x9.stl
 """
 
 from __future__ import annotations

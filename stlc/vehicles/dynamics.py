@@ -4,7 +4,7 @@ energy and rotor speed.
 Consumed through the vehicle registry (``stlc.vehicles``: layout, bounds, start state,
 derived signals per model), by the CasADi backend (SX expressions, multiple shooting), by
 the simulator / replay and by the monitor and reports (numpy).  Rotor geometry and
-allocation live in ``stlc.analysis.geometry``.
+allocation live in ``stlc.vehicles.geometry``.
 
 Multirotor (paper A, eq. 1), state in ``Multirotor.channels()`` order
     x = (p (3), η = (roll φ, pitch θ, yaw ψ) (3), v (3, world), ω (3, body), ξ (n)),  u = ξ̇ (n)
@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from stlc.analysis.geometry import allocation, wrench_matrix
-from stlc.semantics.model import Multirotor, PointMass
+from stlc.vehicles.geometry import allocation, wrench_matrix
+from stlc.vehicles.declared import Multirotor, PointMass
 
 #: state layout offsets of the multirotor (see module docstring)
 POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), 12
@@ -142,13 +142,6 @@ def point_mass_ode(vehicle: PointMass) -> ca.Function:
     return ca.Function("f", [x, u], [ca.vertcat(x[3:6], u)], ["x", "u"], ["xdot"])
 
 
-def point_mass_ode_np(vehicle: PointMass) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    def f(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return np.concatenate([np.asarray(x, dtype=float)[3:6], np.asarray(u, dtype=float)])
-
-    return f
-
-
 # --------------------------------------------------------------------------- bounds, start
 
 
@@ -226,6 +219,15 @@ def rk4_step(f: ca.Function, dt: float, substeps: int = 1) -> ca.Function:
 def euler_step(f: ca.Function, dt: float, substeps: int = 1) -> ca.Function:
     """``F(x, u) -> x_next`` by explicit Euler (cheaper; check accuracy by re-simulating)."""
     return _step(f, dt, substeps, "F", rk4=False)
+
+
+MAX_SUBSTEP = 0.1  # s: integrator sub-steps per interval are at most this long
+
+
+def substeps(dt: float) -> int:
+    """RK4 sub-steps per interval: a coarse grid (e.g. 0.5 s in tests) is integrated as
+    accurately as the 0.1 s grid of the papers (one RK4 step per 0.5 s was off by 3-4 cm)."""
+    return max(1, int(np.ceil(dt / MAX_SUBSTEP - 1e-9)))
 
 
 def discrete_dynamics(

@@ -1,5 +1,11 @@
 """The backup drone's plan of a takeover (paper B §IV-C): MILP → seed → refinement.
 
+``BackupPlanner`` is what the pipeline hands to the takeover simulation
+(``stlc.replan.takeover``), which keeps the flight and the event logic: its constructor
+holds the planner's settings, ``plan`` is ``plan_backup`` below and ``forward_speed`` the
+team chain's v*.  (It is not yet a ``Backend``: the pending targets and the allowed
+stations are not fields of a ``PlanningProblem``.)
+
 Everything is the nominal team planner, called on a reduced problem; nothing here is a
 second planner:
 
@@ -27,38 +33,15 @@ is then reported as not accepted.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
+from stlc.planning.takeover import BackupPlan, Fixed
 from stlc.team import Drone, TeamError, TeamPlan, TeamScenario
 from stlc.team.nlp import FixedDrone
-
-
-@dataclass
-class BackupPlan:
-    """The backup's trajectory on the segment grid (times from 0 = t0) and the statistics."""
-
-    status: SolverStatus
-    route: list[str] = field(default_factory=list)
-    pos: np.ndarray | None = None  # (n, 3)
-    vel: np.ndarray | None = None
-    acc: np.ndarray | None = None
-    stats: dict = field(default_factory=dict)
-    message: str = ""
-
-
-@dataclass(frozen=True)
-class Fixed:
-    """Another drone's trajectory on the segment grid (an operational drone's plan, or the
-    failed drone parked)."""
-
-    drone: Drone
-    pos: np.ndarray
-    vel: np.ndarray
-    acc: np.ndarray
 
 
 def plan_backup(base: TeamScenario, backup: Drone, pending: list[str], stations: list[str],
@@ -128,3 +111,18 @@ def plan_backup(base: TeamScenario, backup: Drone, pending: list[str], stations:
         status = SolverStatus.MAX_TIME
     b = backup.name
     return BackupPlan(status, route, plan.pos[b], plan.vel[b], plan.acc[b], stats)
+
+
+class BackupPlanner:
+    """The takeover's planner, handed to ``stlc.replan.takeover.simulate_failure``."""
+
+    name = "team milp + refinement (backup)"
+
+    def plan(self, *args, **kw) -> BackupPlan:
+        return plan_backup(*args, **kw)
+
+    def forward_speed(self, problem):
+        from stlc.backends.team_backend import forward_speed_target
+
+        return forward_speed_target(problem)
+

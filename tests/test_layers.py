@@ -1,0 +1,114 @@
+"""Folders are layers (issue 18): every import in ``stlc`` — module level, inside a
+function, under ``TYPE_CHECKING`` — goes from a higher layer to a strictly lower one, or
+stays inside one unit (a folder, or a top-level module).
+
+The units, lowest first (``LAYERS``)::
+
+    ground     stlc (the package), diagnostics, interrupt, strictjson, exitcodes
+    frontend   source text → AST
+    vehicles   declared data, dynamics, geometry and behaviour of each vehicle model
+    semantics  checker → checked Program, IR, NNF, time grid, named specs
+    analysis   semantics of given signals: exact monitor, smooth reference, risk, traces
+    team       team algorithms (assignment MILP, primitives, refinement)
+    planning   the contract: PlanningProblem in, Solution out; verification
+    backends   planners behind the Backend interface
+    replan     online replanning (flight loop, events, result)
+    output     writers: solution.json, CSVs, the HTML report, the output directory
+    pipeline   orders the passes
+    bench      benchmarks
+    cli        command line
+    fuzz, __main__
+
+The graph is the one of ``tests/test_import_graph.py`` (``ast``, every import anywhere).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+from test_import_graph import graph
+
+LAYERS: list[set[str]] = [
+    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes"},
+    {"frontend"},
+    {"vehicles"},
+    {"semantics"},
+    {"analysis"},
+    {"team"},
+    {"planning"},
+    {"backends"},
+    {"replan"},
+    {"output"},
+    {"pipeline"},
+    {"bench"},
+    {"cli"},
+    {"fuzz", "__main__"},
+]
+RANK = {u: i for i, layer in enumerate(LAYERS) for u in layer}
+
+
+def unit(module: str) -> str:
+    """The layer unit of a module: its first folder under ``stlc``, or the top-level
+    module's own name (``stlc.pipeline`` → ``pipeline``), ``stlc`` for the package."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "stlc"
+
+
+def violations(g: dict[str, set[str]]) -> list[str]:
+    out = []
+    for m, targets in sorted(g.items()):
+        for t in sorted(targets):
+            a, b = unit(m), unit(t)
+            if a != b and RANK[a] <= RANK[b]:
+                out.append(f"{m} ({a}) imports {t} ({b})")
+    return out
+
+
+def test_every_unit_has_a_layer():
+    units = {unit(m) for m in graph()}
+    assert units <= set(RANK), f"modules outside every layer: {sorted(units - set(RANK))}"
+
+
+def test_imports_go_downwards():
+    bad = violations(graph())
+    assert not bad, "imports against the layer order:\n" + "\n".join(bad)
+
+
+def test_no_folder_cycle():
+    """Implied by the order, checked on its own: the folder graph is acyclic."""
+    g = graph()
+    fg: dict[str, set[str]] = defaultdict(set)
+    for m, ts in g.items():
+        fg[unit(m)] |= {unit(t) for t in ts if unit(t) != unit(m)}
+    seen: dict[str, int] = {}
+
+    def visit(u: str, path: list[str]) -> None:
+        if seen.get(u) == 1:
+            raise AssertionError("folder cycle: " + " -> ".join(path + [u]))
+        if seen.get(u) == 2:
+            return
+        seen[u] = 1
+        for w in sorted(fg[u]):
+            visit(w, path + [u])
+        seen[u] = 2
+
+    for u in sorted(fg):
+        visit(u, [])
+
+
+def test_the_checker_catches_an_upward_import():
+    g = {"stlc.semantics.check.x": {"stlc.planning.problem"},
+         "stlc.planning.problem": {"stlc.semantics.ir"},
+         "stlc.output.a": {"stlc.output.b"}, "stlc.output.b": set(), "stlc.semantics.ir": set()}
+    assert violations(g) == ["stlc.semantics.check.x (semantics) imports "
+                             "stlc.planning.problem (planning)"]
+
+
+def test_replanning_uses_the_backends_only_through_their_interface():
+    """``stlc/replan/`` keeps the flight loop, the event logic and its result type; the
+    planners (segment NLP, backup planner) are handed to it by the pipeline, so it imports
+    nothing from ``stlc/backends/`` but the interface ``stlc.backends.base``."""
+    g = graph()
+    reach = sorted({t for m, ts in g.items() if m.startswith("stlc.replan")
+                    for t in ts if t.startswith("stlc.backends.") and t != "stlc.backends.base"})
+    assert not reach, f"replan reaches past the Backend interface: {reach}"
