@@ -43,7 +43,7 @@ import scipy.sparse as sp
 
 from stlc.team import TeamScenario
 from stlc.team.arcs import Arc
-from stlc.team.highs import Result, _quiet_banner, solve_mip
+from stlc.team.highs import MAX_TIME_S, Result, _quiet_banner, solve_mip
 from stlc.team.pricing import EXACT_LABELS, DroneTrips, Labels, chain, labels
 from stlc.team.trips import Trips, best_order
 
@@ -150,7 +150,8 @@ class _Master:
     def solve_lp(self, deadline: float):
         import highspy
 
-        self.h.setOptionValue("time_limit", max(deadline - time.perf_counter(), 1e-3))
+        self.h.setOptionValue("time_limit", min(max(deadline - time.perf_counter(), 1e-3),
+                                                MAX_TIME_S))
         self.h.run()
         sol = self.h.getSolution()
         ok = self.h.getModelStatus() == highspy.HighsModelStatus.kOptimal

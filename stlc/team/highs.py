@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 FEAS_TOL = 1e-6
+MAX_TIME_S = 300.0  # the time limit of a HiGHS call that was given none (or an infinite one)
 
 
 @dataclass
@@ -69,7 +70,10 @@ def solve_binary(cost: np.ndarray, integer: np.ndarray, a_eq: sp.csr_matrix, b_e
                  time_limit: float | None = None, start: np.ndarray | None = None,
                  options: dict | None = None) -> Result:
     """Minimise ``cost·x`` over ``x ∈ [0, 1]`` (``integer`` marks the binaries; the other
-    columns are continuous in [0, ∞)) subject to ``a_eq x = b_eq`` and ``a_ub x ≤ b_ub``."""
+    columns are continuous in [0, ∞)) subject to ``a_eq x = b_eq`` and ``a_ub x ≤ b_ub``.
+    No solve runs without a time limit: ``None`` or an infinite one is ``MAX_TIME_S``."""
+    if time_limit is None or not np.isfinite(time_limit):
+        time_limit = MAX_TIME_S
     _quiet_banner()
     n = len(cost)
     cost = np.asarray(cost, dtype=float)
@@ -132,7 +136,7 @@ def solve_mip(cost: np.ndarray, integer: np.ndarray, upper: np.ndarray, a: sp.cs
     _quiet_banner()
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
-    h.setOptionValue("time_limit", max(float(time_limit), 1e-3))
+    h.setOptionValue("time_limit", min(max(float(time_limit), 1e-3), MAX_TIME_S))
     h.setOptionValue("mip_rel_gap", 1e-6)
     h.setOptionValue("threads", 1)
     for k, v in (options or {}).items():

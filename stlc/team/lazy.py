@@ -52,9 +52,11 @@ station per drone) is computed and handed to HiGHS as the starting incumbent of 
 later round — it satisfies every row, lazy ones included.  Past the budget the answer is
 the best feasible assignment known (HiGHS's incumbent if it violates no lazy row, else the
 heuristic's), not optimal, with the stopped round's dual bound as a lower bound of the
-optimum (``AssignStats.bound``).  Measured: 2×7 and 4×11 finish in 0.1 s / ≈3 s (cold);
-6×16 does not (6 rounds, ≈460 cuts in 30 s), and the heuristic's Σ is within 14 % of the
-bound there.
+optimum (``AssignStats.bound``).  Measured: 2×7 and 4×11 finish in 0.1 s / ≈3 s (cold),
+3×9 with a refill in 14.6 s (10 rounds, 301 cuts); 6×16 does not (6 rounds, ≈460 cuts in
+30 s; the heuristic's Σ within 14 % of the bound) — the route formulation proves all of
+them optimal (README, team table).  ``lazy_solve`` is the loop; ``stlc.team.milp.assign``
+picks the formulation and owns the budget.
 """
 
 from __future__ import annotations
