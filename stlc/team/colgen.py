@@ -321,6 +321,11 @@ def solve(sc: TeamScenario, arcs: list[Arc], trips: Trips, limit: float, deadlin
         start = np.zeros(master.n_art + len(master.cols))
         for c in known:
             start[master.n_art + master.cols.index(c)] = 1.0
+
+    def price(thr):
+        return _price(drones, y, nt, nd, ns, exclusive, refills, limit, thr, EXACT_LABELS,
+                      deadline, single, every=True)
+
     keep = None
     if exact:  # first only the columns of small reduced cost (the rest is settled below)
         tau = max(0.02 * abs(obj), 10 * step)
@@ -332,7 +337,8 @@ def solve(sc: TeamScenario, arcs: list[Arc], trips: Trips, limit: float, deadlin
     ub = ip.objective if ip.x is not None else math.inf
     if ip.x is not None and ub < big and ub <= lbr + 1e-6:
         res.status = "optimal"
-        return _finish(res, sc, arcs, trips, master, ip.x, known)
+        x = _balance(master, ip.x, ub, obj, y, exact, price, deadline) if exact else ip.x
+        return _finish(res, sc, arcs, trips, master, x, known)
     if exact and ip.x is not None and ub < big:
         # every column has reduced cost >= 0: only those with rc <= UB - Δt - LP can be in
         # a better assignment; enumerate them all, then solve over them and the incumbent
@@ -352,13 +358,54 @@ def solve(sc: TeamScenario, arcs: list[Arc], trips: Trips, limit: float, deadlin
                     if ip2.x is not None and ip2.objective < ub:
                         ip = ip2
                     res.bound = min(ub, ip2.objective)
-                    return _finish(res, sc, arcs, trips, master, ip.x, known)
+                    x = _balance(master, ip.x, res.bound, obj, y, exact, price, deadline)
+                    return _finish(res, sc, arcs, trips, master, x, known)
                 if ip2.x is not None and ip2.objective <= ub:
                     ip = ip2
                 res.bound = max(res.bound, ip2.bound)
         except TimeoutError:
             pass
     return _finish(res, sc, arcs, trips, master, ip.x, known)
+
+
+def _balance(master: _Master, x, best: float, obj: float, y, exact: bool, price,
+             deadline: float):
+    """Among the assignments of optimal total ``best``, one of least makespan (a tie-break:
+    equal totals, work spread over the drones): every column of reduced cost ≤ best − LP
+    (all that an optimal assignment can use) is enumerated, then ``min M`` s.t. the rows,
+    ``Σ cost·x ≤ best`` and ``cost_r x_r ≤ M``.  Keeps ``x`` when anything is missing."""
+    if not exact or time.perf_counter() >= deadline:
+        return x
+    try:
+        cols, complete, _ = price(best - obj + 1e-6)
+    except TimeoutError:
+        return x
+    if not complete:
+        return x
+    master.add(cols)
+    x = _extend(x, master)
+    a, cost = master.matrix()
+    keep = (master.reduced(y) <= best - obj + 1e-6) | (x > 0.5)
+    keep[:master.n_art] = False
+    sel = np.flatnonzero(keep)
+    k = len(sel)
+    sub, c = a[:, sel], cost[sel]
+    rows = sp.vstack([sp.hstack([sub, sp.csc_matrix((sub.shape[0], 1))]),
+                      sp.hstack([sp.csc_matrix(c[None, :]), sp.csc_matrix((1, 1))]),
+                      sp.hstack([sp.diags(c), -sp.csc_matrix(np.ones((k, 1)))])]).tocsc()
+    lo = np.concatenate([master.lo, [-np.inf], np.full(k, -np.inf)])
+    hi = np.concatenate([master.hi, [best + 1e-6], np.zeros(k)])
+    start = np.concatenate([x[sel], [float(np.max(c * x[sel]))]])
+    res = solve_mip(np.concatenate([np.zeros(k), [1.0]]),
+                    np.concatenate([np.ones(k, dtype=bool), [False]]),
+                    np.concatenate([np.ones(k), [np.inf]]), rows, lo, hi,
+                    time_limit=min(max(deadline - time.perf_counter(), 1e-3), 5.0),
+                    start=start, options=IP_OPTIONS)
+    if res.x is None or float(c @ np.round(res.x[:k])) > best + 1e-6:
+        return x
+    out = np.zeros_like(x)
+    out[sel] = np.round(res.x[:k])
+    return out
 
 
 def _extend(x, master: _Master):
