@@ -247,7 +247,7 @@ def _price(drones, y, nt, nd, ns, exclusive, refills, limit, thr, cap, deadline,
 
 def routes_of(sc: TeamScenario, arcs: list[Arc], trips: Trips, cols: list[Column]):
     routes, times = {}, {}
-    for c in cols:
+    for c in sorted(cols, key=lambda c: c.drone):  # in the drones' order
         dr = sc.drones[c.drone]
         names: list[str] = []
         for t in c.trips:
@@ -403,6 +403,8 @@ def _balance(master: _Master, x, best: float, obj: float, y, exact: bool, price,
                     start=start, options=IP_OPTIONS)
     if res.x is None or float(c @ np.round(res.x[:k])) > best + 1e-6:
         return x
+    if float(np.max(c * np.round(res.x[:k]))) >= float(np.max(c * x[sel])) - 1e-9:
+        return x  # no shorter makespan: keep the first optimum
     out = np.zeros_like(x)
     out[sel] = np.round(res.x[:k])
     return out
