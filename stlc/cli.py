@@ -44,6 +44,9 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--mission", metavar="NAME", default=None)
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
+    k.add_argument("--backend", metavar="NAME", default=None,
+                   help="force a backend chain: milp | nlp | team (or a backend's name); "
+                   "default: chosen by capabilities")
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
@@ -197,7 +200,7 @@ def cmd_compile(args) -> int:
     from stlc.pipeline import compile_file
 
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
-                        risk=not args.no_risk)
+                        risk=not args.no_risk, backend=args.backend)
 
 
 def cmd_simulate(args) -> int:

@@ -83,6 +83,7 @@ CODES: dict[str, str] = {
     "STL501": "no satisfying plan found",
     "STL502": "the solver failed",
     "STL503": "no task assignment exists (capacity, stations, reach or horizon)",
+    "STL504": "no plan can satisfy the mission: its specs conflict (proved infeasible)",
     # input files (traces, trajectories)
     "STL601": "cannot read file",
     "STL602": "malformed trace",

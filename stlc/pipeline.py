@@ -86,19 +86,12 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
 # ---------------------------------------------------------------- planning
 
 
-def backend_chain(problem, quiet: bool = True) -> list:
-    """The backends that plan ``problem``, in order (seed first): a team mission (its
-    requirement reads a payload) is seeded by the task-assignment MILP and refined on
-    waypoints; any other by a kinematic path and refined by the full dynamics NLP."""
-    from stlc.backends.team_backend import is_team_mission
+def backend_chain(problem, quiet: bool = True, backend: str | None = None) -> list:
+    """The backends that plan ``problem``, in order (seed first), chosen from the registry
+    by capabilities (``stlc.backends.select``) or forced by ``backend``."""
+    from stlc.backends.select import select
 
-    if is_team_mission(problem):
-        from stlc.backends.team_backend import MilpSeed, TeamRefine
-
-        return [MilpSeed(), TeamRefine()]
-    from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
-
-    return [KinematicGuess(), CasadiNlp(quiet=quiet)]
+    return select(problem, backend, quiet).backends
 
 
 def _team_comparisons(sols: list) -> None:
@@ -117,20 +110,31 @@ def _team_comparisons(sols: list) -> None:
 
 
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
-         step: float | None = None, horizon: float | None = None):
+         step: float | None = None, horizon: float | None = None,
+         backend: str | None = None):
     """Plan one mission and verify the plan: returns (PlanningProblem, Solution)."""
     from stlc.backends.base import run_chain
+    from stlc.backends.select import chain_record, select
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import verify
 
     problem = from_mission(program, mission, step=step, horizon=horizon)
-    chain = backend_chain(problem, quiet)
-    sol, sols = run_chain(problem, chain)
+    chain = select(problem, backend, quiet)
+    if not quiet:
+        print(f"{mission.name}: chain `{chain.name}`"
+              f"{' (forced)' if chain.forced else ''}: "
+              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
+    sol, sols = run_chain(problem, chain.backends)
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
+    sol.solver["chain"] = chain_record(chain, sols)
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
+    if sol.status != "satisfied":
+        from stlc.backends.milp_conflict import explain_infeasible
+
+        explain_infeasible(problem, sol, quiet=quiet)
     return problem, sol
 
 
@@ -161,7 +165,7 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
 
 
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
-                 quiet: bool = False, risk: bool = True) -> int:
+                 quiet: bool = False, risk: bool = True, backend: str | None = None) -> int:
     """``stlc compile``: every selected mission planned, verified, assessed, written."""
     from stlc.output import compile as outputs
 
@@ -183,7 +187,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     code = EXIT_OK
     for m in missions:
         t1 = time.perf_counter()
-        _, sol = plan(program, m, quiet=quiet)
+        _, sol = plan(program, m, quiet=quiet, backend=backend)
         sol.timing.update(loaded.timing)
         if risk and m.risk is not None:
             assess_risk(program, m, sol)

@@ -72,6 +72,13 @@ def test_ipopt_codes_of_the_casadi_backends():
         assert not cls.STATUS_MAP["Maximum_Iterations_Exceeded"].converged
 
 
+def test_highs_codes_of_the_exact_milp():
+    cls = registry()["milp"]
+    assert cls.STATUS_MAP["Optimal"].converged
+    assert cls.STATUS_MAP["Time limit reached"] == SolverStatus.MAX_TIME
+    assert not SolverStatus.MAX_TIME.converged
+
+
 def test_unplanned_signal_is_refused_at_its_predicate(problem):
     diags = registry()["casadi"]().accepts(problem)
     assert [d.code for d in diags] == ["STL401"]

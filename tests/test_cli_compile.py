@@ -81,7 +81,7 @@ def recheck(stl: Path, outdir: Path, mission_name: str) -> tuple[float, dict]:
 
 def assert_contract(sol: dict, mission_name: str, spec_names: set[str]) -> None:
     assert sol["mission"] == mission_name
-    assert sol["status"] in ("satisfied", "violated", "solver_failed")
+    assert sol["status"] in ("satisfied", "violated", "solver_failed", "infeasible")
     assert isinstance(sol["robustness"]["exact"], float)
     assert isinstance(sol["robustness"]["smooth"], float)
     assert set(sol["specs"]) == spec_names
@@ -194,6 +194,10 @@ def test_progress_goes_to_stderr_without_quiet(tmp_path, capsys):
     assert main(["compile", str(stl), "-o", str(tmp_path / "out")]) == 0
     cap = capsys.readouterr()
     assert "reach: satisfied" in cap.out
+    assert "chain `milp`" in cap.err  # a point mass: the exact MILP, chosen by capability
+    assert main(["compile", str(stl), "-o", str(tmp_path / "out2"), "--backend", "nlp"]) == 0
+    cap = capsys.readouterr()
+    assert "chain `nlp` (forced)" in cap.err
     assert "iter" in cap.err and "exact" in cap.err
 
 
@@ -202,14 +206,13 @@ def test_unsatisfiable_mission_exits_3_and_still_reports(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["compile", str(stl), "-o", str(out), "-q"]) == 3
     cap = capsys.readouterr()
-    # even with -q the failure is explained: which spec, when, by how much
-    assert "far: violated" in cap.out
-    assert f"error[STL501]: spec `go` (line {FAR_GO_LINE}) is violated at t = 3 s by 97.25" \
-        in cap.err
+    # even with -q the failure is explained: x ≥ 100 m in 3 s is proved impossible
+    assert "far: infeasible" in cap.out
+    assert "error[STL504]: no plan can satisfy mission `far`: spec `go` cannot hold" in cap.err
     assert files(out) == OUTPUTS
     exact, sol = recheck(stl, out, "far")
     assert_contract(sol, "far", {"go"})
-    assert sol["status"] == "violated"
+    assert sol["status"] == "infeasible" and sol["conflict"] == ["go"]
     assert sol["robustness"]["exact"] < 0
     assert exact == pytest.approx(sol["robustness"]["exact"], abs=1e-6)
     assert exact == pytest.approx(-97.25, abs=0.05)
@@ -221,8 +224,7 @@ def test_unsatisfiable_mission_exits_3_and_still_reports(tmp_path, capsys):
     # the report's failure banner names the spec, the time and the binding predicate
     banner = html[html.index('id="failure"'):]
     banner = banner[:banner.index("</section>")]
-    assert "violated" in banner and "<code>go</code>" in banner
-    assert "t = 3 s" in banner and "p.pos.x" in banner and "100 m" in banner
+    assert "No plan exists" in banner and "`go`" in banner
 
 
 def test_unsatisfiable_mission_as_a_process(tmp_path):
@@ -232,7 +234,7 @@ def test_unsatisfiable_mission_as_a_process(tmp_path):
                        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 3
     assert "Traceback" not in r.stderr
-    assert "error[STL501]" in r.stderr
+    assert "error[STL504]" in r.stderr
     assert files(tmp_path / "out") == OUTPUTS
 
 
@@ -264,7 +266,7 @@ def test_one_violated_mission_of_two_exits_3(tmp_path, capsys):
     assert main(["compile", str(stl), "-o", str(out), "-q"]) == 3
     assert files(out) == {"ok", "bad"}
     assert json.loads((out / "ok" / "solution.json").read_text())["status"] == "satisfied"
-    assert json.loads((out / "bad" / "solution.json").read_text())["status"] == "violated"
+    assert json.loads((out / "bad" / "solution.json").read_text())["status"] == "infeasible"
     assert "spec `go`" in capsys.readouterr().err
 
 
@@ -366,12 +368,12 @@ def test_margin_short_of_the_threshold_is_not_satisfied(tmp_path, capsys):
     assert main(["compile", str(stl), "-o", str(out), "-q"]) == 3
     sol = json.loads((out / "solution.json").read_text(encoding="utf-8"))
     exact = sol["robustness"]["exact"]
-    assert sol["status"] == "violated" and exact < 0.3
+    # the relaxation (a double integrator with the hexarotor's acceleration box) proves it
+    assert sol["status"] == "infeasible" and exact < 0.3 and sol["conflict"] == ["reach"]
     assert sol["smoothing"]["threshold"] == 0.3
     assert all(s["satisfied"] == (s["robustness"] >= 0.3) for s in sol["specs"].values())
     assert isinstance(sol["solver"]["converged"], bool)
     err = capsys.readouterr().err
-    assert "error[STL501]" in err
+    assert "error[STL504]" in err and "spec `reach` cannot hold with margin κ = 0.3" in err
     if exact >= 0:
-        assert "short of the threshold κ = 0.3" in err
         assert any("margin fell short" in n for n in sol["notes"])

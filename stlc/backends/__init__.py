@@ -1,7 +1,8 @@
 """Solver backends behind one interface (``stlc.backends.base.Backend``).
 
-``registry()`` lists every backend class with its name; the pipeline chains them
-(``stlc.pipeline.backend_chain``).  See the README, "Adding a backend".
+``registry()`` is the name → backend table holding every backend; ``stlc.backends.select``
+chooses a chain of them for a problem by their capabilities (or the one a user forces with
+``--backend NAME`` or a mission's ``backend = NAME``).  See the README, "Adding a backend".
 """
 
 from __future__ import annotations
@@ -9,5 +10,8 @@ from __future__ import annotations
 
 def registry() -> dict[str, type]:
     from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
+    from stlc.backends.milp_backend import ExactMilp
+    from stlc.backends.team_backend import MilpSeed, TeamRefine
 
-    return {"kinematic": KinematicGuess, "casadi": CasadiNlp}
+    return {"milp": ExactMilp, "kinematic": KinematicGuess, "casadi": CasadiNlp,
+            "team-milp": MilpSeed, "team-refine": TeamRefine}

@@ -57,10 +57,19 @@ class Capabilities:
     functions: frozenset[str]
     team: bool = True
     derived_signals: frozenset[str] = frozenset()  # e.g. {"payload"}: channels not planned
+    #: plans only vehicles whose model offers a linear model ``(A, B)`` (any kind)
+    linear_dynamics_only: bool = False
+    #: has integer decision variables (discrete choices decided globally: a MILP)
+    integer_variables: bool = False
+    #: plans only problems whose requirement reads one of these signal fields (a team
+    #: chain: ``payload``); empty = any problem
+    needs_signals: frozenset[str] = frozenset()
 
     def describe(self) -> str:
-        return (f"vehicles {sorted(self.vehicle_models)}, "
-                f"{len(self.nodes)} formula nodes, functions {sorted(self.functions)}")
+        return (f"vehicles {sorted(self.vehicle_models)}"
+                f"{' (any with linear dynamics)' if self.linear_dynamics_only else ''}, "
+                f"{len(self.nodes)} formula nodes, functions {sorted(self.functions)}"
+                f"{', integer variables' if self.integer_variables else ''}")
 
 
 #: every formula node of the IR after normalisation, and every expression function: what a
@@ -114,8 +123,14 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
     out: list[Diagnostic] = []
     who = f"the {backend.name} backend"
     for v in problem.vehicles():
-        kind = vehicles.model_of(v).kind
-        if kind not in cap.vehicle_models:
+        vm = vehicles.model_of(v)
+        kind = vm.kind
+        linear = getattr(vm, "linear_model", None)
+        if cap.linear_dynamics_only and (linear is None or linear(v) is None):
+            out.append(Diagnostic("STL401", f"{who} cannot plan a `{kind}` vehicle "
+                                  f"(`{v.name}`): its dynamics are not linear", v.span,
+                                  "vehicles with linear dynamics: point_mass"))
+        elif not cap.linear_dynamics_only and kind not in cap.vehicle_models:
             out.append(Diagnostic("STL401", f"{who} cannot plan a `{kind}` vehicle "
                                   f"(`{v.name}`)", v.span,
                                   "supported models: " + ", ".join(sorted(cap.vehicle_models))))

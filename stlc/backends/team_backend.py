@@ -32,7 +32,8 @@ from stlc.planning.problem import PlanningProblem
 from stlc.semantics.specs import reads_payload
 
 _CAPS = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
-                     functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}))
+                     functions=ALL_FUNCTIONS, derived_signals=frozenset({"payload"}),
+                     needs_signals=frozenset({"payload"}))
 
 
 def is_team_mission(problem: PlanningProblem) -> bool:

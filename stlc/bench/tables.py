@@ -161,7 +161,7 @@ def _plan_once(program, mission, step: float | None, load_s: float) -> dict[str,
 
     with _solver_stats() as stats:
         t0, c0 = time.perf_counter(), time.process_time()
-        _, sol = plan(program, mission, quiet=True, step=step)
+        _, sol = plan(program, mission, quiet=True, step=step, backend="nlp")
         total = time.perf_counter() - t0 + load_s
         cpu = time.process_time() - c0
     stages = sol.solver.get("stages", [])

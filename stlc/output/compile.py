@@ -65,7 +65,11 @@ def summary(sol: Solution, outdir: str) -> None:
     print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
           f"smooth {sol.robustness_smooth:+.4f}  energy {sol.energy:.1f} J  "
           f"→ {outdir}/report.html")
-    if sol.status != "satisfied":
+    if sol.status == "infeasible":
+        for d in sol.diagnostics:
+            if d.code == "STL504":
+                print(f"  error[STL504]: {d.message}", file=sys.stderr)
+    elif sol.status != "satisfied":
         worst = min(sol.specs.items(), key=lambda kv: kv[1].robustness, default=None)
         if worst is not None:
             name, s = worst

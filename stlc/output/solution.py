@@ -34,6 +34,7 @@ def solution_json_dict(sol: Solution) -> dict:
     return {
         "mission": sol.mission,
         "status": str(sol.status),
+        **({"conflict": list(sol.conflict)} if sol.status == Verdict.INFEASIBLE else {}),
         "robustness": {"exact": num(sol.robustness_exact),
                        "smooth": num(sol.robustness_smooth)},
         "specs": {

@@ -22,6 +22,7 @@ class Verdict(enum.StrEnum):
     SATISFIED = "satisfied"
     VIOLATED = "violated"
     SOLVER_FAILED = "solver_failed"  # no dynamically feasible plan came out of the solver
+    INFEASIBLE = "infeasible"  # proved: no plan can satisfy the mission (``conflict``)
 
 
 @dataclass
@@ -92,3 +93,5 @@ class Solution:
     routes: dict[str, list[str]] = field(default_factory=dict)
     visits: list = field(default_factory=list)
     events: list = field(default_factory=list)
+    #: an infeasible mission: a minimal set of named specs that cannot hold together
+    conflict: list[str] = field(default_factory=list)

@@ -104,6 +104,16 @@ class MultirotorModel:
               ) -> tuple[np.ndarray, np.ndarray]:
         return multirotor_guess(v, P, V, A, dt)
 
+    def kinematic_envelope(self, v: Multirotor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sound bounds of every flyable trajectory: no speed bound (inf), and per axis an
+        acceleration interval that contains R(η) G_f ξ / m + g for every attitude and every
+        rotor force in bounds: each component of R G_f ξ is at most ‖G_f ξ‖ ≤ Σ ξ_i ≤
+        n·force_max in size (rotor axes are unit vectors, forces are non-negative)."""
+        a = len(v.rotors) * max(abs(v.force_max), abs(v.force_min)) / v.mass
+        lo = np.array([-a, -a, -a - v.gravity])
+        hi = np.array([a, a, a - v.gravity])
+        return np.full(3, np.inf), lo, hi
+
     def plot_bounds(self, v: Multirotor) -> dict[str, list[float]]:
         return {"force": [v.force_min, v.force_max]}
 

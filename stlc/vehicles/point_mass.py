@@ -75,6 +75,12 @@ class PointMassModel:
               ) -> tuple[np.ndarray, np.ndarray]:
         return np.vstack([P, V]), A
 
+    def kinematic_envelope(self, v: PointMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sound bounds of every flyable trajectory: per-axis speed bound, acceleration
+        interval (lo, hi) — here the declared bounds themselves."""
+        amax = np.asarray(v.acc_max, dtype=float)
+        return np.asarray(v.vel_max, dtype=float), -amax, amax.copy()
+
     def plot_bounds(self, v: PointMass) -> dict[str, list[float]]:
         return {"speed_axis": list(v.vel_max)}
 

@@ -38,7 +38,7 @@ from .signals import signals, spec_formulas, windows
 from .team_view import team
 
 STATUS_LABELS = {"satisfied": "Satisfied", "violated": "Violated",
-                 "solver_failed": "Solver failed"}
+                 "solver_failed": "Solver failed", "infeasible": "No plan exists"}
 STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "smooth ρ̃", "exact": "exact ρ"}
 #: stage columns holding a robustness (shown with a sign)
 SIGNED_STAGE_KEYS = ("smooth", "exact")
@@ -147,7 +147,11 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
               for k in (*TIMING_ORDER, *sorted(set(sol.timing) - set(TIMING_ORDER)))
               if k in sol.timing]
     solver_extra = [{"name": str(k), "text": str(v)} for k, v in sol.solver.items()
-                    if k not in ("name", "iterations", "return_status", "stages")]
+                    if k not in ("name", "iterations", "return_status", "stages", "chain")]
+    chain = sol.solver.get("chain") or {}
+    chain_text = (f"{chain.get('name', '?')}{' (forced)' if chain.get('forced') else ''}: "
+                  + " → ".join(f"{st['backend']} ({st['status']})"
+                               for st in chain.get("stages", []))) if chain else "—"
     stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.get("stages") or []
               if isinstance(s, dict) or hasattr(s, "__dict__")]
     stage_keys = list(dict.fromkeys(k for s in stages for k in s))
@@ -176,6 +180,7 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "iterations": str(sol.solver.get("iterations", "—")),
         "return_status": str(sol.solver.get("return_status", "—")),
         "solver_extra": solver_extra,
+        "chain_text": chain_text,
         "smoothing_method": str(smoothing.get("method", "—")),
         "smoothing_lam_text": lam_text,
         "smoothing_schedule": ", ".join(fmt(x) for x in smoothing.get("schedule") or []),
@@ -250,6 +255,12 @@ def _banner(sol: Solution, rows: list[dict]) -> dict | None:
     failing = [r for r in rows if not r["satisfied"]]
     worst = min(failing or rows, key=lambda r: (r["robustness"] is None, r["robustness"] or 0),
                 default=None)
+    if sol.status == "infeasible":
+        conflict = ", ".join(f"`{c}`" for c in sol.conflict)
+        return {"status": sol.status, "title": "No plan exists", "spec": None,
+                "lead": f"No plan can satisfy this mission: proved infeasible (a MILP over a "
+                        f"relaxation containing every trajectory the vehicles can fly); the "
+                        f"conflicting specs: {conflict}. The plan below is the best attempt."}
     if sol.status == "solver_failed":
         title = "Solver failed"
         lead = (f"{sol.solver.get('name', 'The solver')} stopped with return status "

@@ -21,6 +21,7 @@ MISSION_FIELDS = {
     "vehicles": False, "team": False, "vehicle": False, "horizon": True, "step": True,
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
+    "backend": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
@@ -109,6 +110,13 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
         if txt not in ("rk4", "euler"):
             ck.d.error("STL207", "`integrator` is `rk4` or `euler`", v.span)
         options["integrator"] = txt
+    if "backend" in f:  # a chain or backend name; checked against the registry when planned
+        v = f["backend"].value
+        txt = v.parts[0] if isinstance(v, ast.Path) else getattr(v, "value", "")
+        if not isinstance(txt, str) or not txt:
+            ck.d.error("STL207", "`backend` is a backend name, e.g. `milp` or `nlp`", v.span)
+        else:
+            options["backend"], options["backend_span"] = txt, v.span
     if "max_iter" in f:
         mi = _whole(ck, f["max_iter"].value, "max_iter", 1, MAX_COUNT, scope)
         if mi is not None:

@@ -1,0 +1,296 @@
+"""The exact backend for linear vehicles: the requirement's STL→MILP encoding
+(``milp_encode``) over the vehicles' exact discrete dynamics (``milp_model``) on the
+mission grid, solved to its global optimum by HiGHS.
+
+``lower`` builds the model once: every vehicle offering a linear model ``(A, B)``
+(``VehicleModel.linear_model``) gets state and input columns and its zero-order-hold
+dynamics rows; the requirement (NNF) is encoded at sample 0 and its term bounds the
+epigraph column ρ̂, which is maximised.  ``solve`` runs HiGHS with the user's time limit
+(mission option ``time_limit``, else the backend's): ``Optimal`` means ρ̂ is the maximum
+robustness over every plan on the grid; ``Time limit reached`` gives the incumbent with
+HiGHS's dual bound — *not converged*, the gap is reported.  ``invert`` re-simulates the
+states from the inputs through the same discrete model (the plan obeys the dynamics to
+rounding) and returns mission-level channels; the exact monitor then judges the plan, and
+its robustness equals ρ̂ to the MIP gap (1e-9) and the solver tolerances.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from stlc import vehicles
+from stlc.backends.base import ALL_NODES, Backend, Capabilities, SolverStatus, unsupported
+from stlc.backends.milp_encode import Encoder, NotLinear, Term, affine
+from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_vehicle
+from stlc.diagnostics import Diagnostic
+from stlc.planning.solution import Solution, Verdict
+from stlc.planning.problem import PlanningProblem
+from stlc.semantics import ir
+
+TIME_LIMIT_S = 120.0  #: default wall-time limit of one MILP solve (a mission may set its own)
+
+HIGHS_STATUS_MAP = {
+    "Optimal": SolverStatus.OPTIMAL,
+    "Time limit reached": SolverStatus.MAX_TIME,
+    "Iteration limit reached": SolverStatus.MAX_ITER,
+    "Infeasible": SolverStatus.INFEASIBLE,
+    "Primal infeasible or unbounded": SolverStatus.INFEASIBLE,
+    "Interrupted by user": SolverStatus.INTERRUPTED,
+    "Solve error": SolverStatus.FAILED,
+    "Unbounded": SolverStatus.FAILED,
+}
+
+
+def linear_model(v):
+    """``(A, B)`` of a vehicle whose model offers one, else None."""
+    fn = getattr(vehicles.model_of(v), "linear_model", None)
+    return None if fn is None else fn(v)
+
+
+@dataclass
+class Lowered:
+    milp: Milp
+    vehicles: list[LinearVehicle]
+    top: int  # the epigraph column ρ̂ (maximised)
+    encoder: Encoder
+    build_s: float
+    terms: dict[str, Term] = field(default_factory=dict)
+    box: dict = field(default_factory=dict)
+
+
+def planned_channels(problem: PlanningProblem, relaxed: bool = False) -> set[str]:
+    out: set[str] = set()
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        out |= set(vm.state_channels(v)) | set(vm.input_channels(v))
+    return out
+
+
+def invariant_box(problem: PlanningProblem) -> dict[str, tuple[float, float]]:
+    """Channel → [lo, hi] that every plan with robustness ≥ 0 keeps at every sample: the
+    bounds of a top-level conjunct ``always[0, T] (s ≥ c and …)`` over the whole grid.  A
+    plan outside has a negative robustness, so restricting to the box loses no plan that
+    could beat a non-negative optimum (``ExactMilp`` solves again without it otherwise)."""
+    req = problem.requirement
+    parts = req.args if isinstance(req, ir.And) else (req,)
+    out: dict[str, tuple[float, float]] = {}
+    for g in parts:
+        if not (isinstance(g, ir.Always) and g.lo == 0
+                and problem.grid.window(g.lo, g.hi)[1] >= problem.grid.n - 1):
+            continue
+        body = g.arg.args if isinstance(g.arg, ir.And) else (g.arg,)
+        for p in body:
+            if not isinstance(p, ir.Pred):
+                continue
+            try:
+                coefs, c = affine(p.expr, problem.params, p)
+            except NotLinear:
+                continue
+            if len(coefs) != 1:
+                continue
+            (sig, a), = coefs.items()
+            lo, hi = out.get(sig, (-INF, INF))
+            if a > 0:
+                lo = max(lo, -c / a)
+            elif a < 0:
+                hi = min(hi, -c / a)
+            out[sig] = (lo, hi)
+    return out
+
+
+def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
+          box: dict[str, tuple[float, float]] | None = None) -> Lowered:
+    """The MILP of ``problem``'s vehicles with each formula of ``formulas`` encoded at
+    sample 0 (``terms``); ``lins`` maps a vehicle to its (states, inputs, A, B, bounds, x0)
+    (default: the vehicle's own linear model)."""
+    t0 = time.perf_counter()
+    m = Milp()
+    grid = problem.grid
+    lvs: list[LinearVehicle] = []
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        discrete = lins is not None
+        if discrete:
+            states, inputs, a, b, bounds, x0 = lins(v)
+        else:
+            a, b = linear_model(v)
+            states, inputs = vm.state_channels(v), vm.input_channels(v)
+            bounds, x0 = vm.bounds(v), problem.start_states.get(v.name, vm.initial_state(v))
+        if box:
+            from dataclasses import replace
+
+            lo_, hi_ = np.array(bounds.x_lo, float), np.array(bounds.x_hi, float)
+            for i, c in enumerate(states):
+                if c in box and box[c][0] <= x0[i] <= box[c][1]:
+                    lo_[i], hi_[i] = max(lo_[i], box[c][0]), min(hi_[i], box[c][1])
+            bounds = replace(bounds, x_lo=lo_, x_hi=hi_)
+        lvs.append(linear_vehicle(m, v.name, states, inputs, a, b, bounds, x0, grid.dt,
+                                  grid.n, discrete))
+    index = {}
+    for lv in lvs:
+        for c in lv.states + lv.inputs:
+            index[c] = lv
+
+    def channel(name: str, k: int):
+        lv = index.get(name)
+        return None if lv is None else lv.channel(name, k)
+
+    def fixed(name: str):
+        f = problem.fixed_channels.get(name)
+        return None if f is None else np.asarray(f, dtype=float)
+
+    enc = Encoder(m, grid, dict(problem.params), channel, fixed)
+    terms = {name: enc.at(f, 0) for name, f in formulas.items()}
+    top = -1
+    if len(formulas) == 1:
+        t = next(iter(terms.values()))
+        if not t.is_const:
+            top = m.var(t.lo, t.hi)
+            enc._le(top, t)
+    return Lowered(m, lvs, top, enc, time.perf_counter() - t0, terms)
+
+
+def nonlinear_predicates(problem: PlanningProblem, formula: ir.Formula) -> list[Diagnostic]:
+    """STL401 at every predicate that is not affine in the planned states and inputs."""
+    planned = planned_channels(problem)
+    out = []
+    for p in ir.predicates(formula):
+        try:
+            coefs, _ = affine(p.expr, problem.params, p)
+            missing = [s for s in coefs if s not in planned and s not in problem.fixed_channels]
+            if missing:
+                raise NotLinear(p, f"`{missing[0]}` is not a state or input of a linear "
+                                "vehicle")
+        except NotLinear as e:
+            out.append(Diagnostic("STL401", f"the exact MILP backend needs predicates linear "
+                                  f"in the state: {e}", p.span,
+                                  "plan this mission with `--backend nlp`, or write the "
+                                  "predicate with boxes, half-spaces and bounds"))
+    return out
+
+
+class ExactMilp(Backend):
+    name = "exact MILP (HiGHS)"
+    capabilities = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
+                                functions=frozenset(), linear_dynamics_only=True,
+                                integer_variables=True)
+    STATUS_MAP = HIGHS_STATUS_MAP
+
+    def __init__(self, quiet: bool = True, time_limit: float | None = None):
+        self.quiet = quiet
+        self.time_limit = time_limit
+
+    def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
+        out = unsupported(self, problem)
+        if any(d.message.startswith(f"the {self.name} backend cannot plan") for d in out):
+            return out
+        return out + nonlinear_predicates(problem, problem.requirement)
+
+    def lower(self, problem: PlanningProblem):
+        box = invariant_box(problem)
+        low = build(problem, {"requirement": problem.requirement}, box=box)
+        low.box = box
+        return low, low
+
+    def _limit(self, problem: PlanningProblem) -> float:
+        t = problem.mission.options.get("time_limit")
+        if t is None:
+            t = self.time_limit if self.time_limit is not None else TIME_LIMIT_S
+        return float(t)
+
+    def solve(self, low: Lowered, problem: PlanningProblem):
+        """Two phases on one model: a plan with ρ̂ ≥ κ first (a feasibility MILP, usually
+        far faster than the optimisation; ``Infeasible`` here proves no plan reaches κ),
+        then ρ̂ maximised from it as a MIP start.  Inside the invariant box a negative
+        optimum proves nothing, so then the whole problem is solved again."""
+        t0 = time.perf_counter()
+        limit = self._limit(problem)
+        res = self._two_phase(low, problem, limit)
+        if low.box and not (res.x is not None and -res.objective >= 0):
+            full = build(problem, {"requirement": problem.requirement})
+            left = limit - (time.perf_counter() - t0)
+            res2 = self._two_phase(full, problem, max(left, 1.0))
+            low.milp, low.vehicles, low.top = full.milp, full.vehicles, full.top
+            res2.wall_s += res.wall_s
+            return res2
+        return res
+
+    def _two_phase(self, low: Lowered, problem: PlanningProblem, limit: float):
+        if low.top < 0:
+            return Highs(low.milp, {}, time_limit=limit).solve()
+        t0 = time.perf_counter()
+        h = Highs(low.milp, {}, time_limit=limit)
+        kappa_lo = max(low.milp.lo[low.top], problem.threshold)
+        h.set_col_bounds(low.top, kappa_lo, low.milp.hi[low.top])
+        first = h.solve()
+        self.phases = [("feasibility", first.status, first.wall_s)]
+        h = Highs(low.milp, {low.top: -1.0},
+                  time_limit=max(limit - (time.perf_counter() - t0), 1.0))
+        if first.x is not None:
+            h.start(first.x)
+        res = h.solve()
+        self.phases.append(("optimisation", res.status, res.wall_s))
+        res.wall_s += first.wall_s
+        if res.x is None and first.x is not None:
+            res.x, res.objective = first.x, -float(first.x[low.top])
+        return res
+
+    def invert(self, res, low: Lowered, problem: PlanningProblem) -> Solution:
+        n = problem.grid.n
+        status = self.status(res.status)
+        x = res.x
+        if x is None:  # no incumbent: hold the inputs at zero (a dynamically feasible plan)
+            x = np.zeros(low.milp.n_cols)
+            for lv in low.vehicles:
+                x[lv.x[0]] = np.asarray(low.milp.lo)[lv.x[0]]
+        ch: dict[str, np.ndarray] = {}
+        dev = 0.0
+        for lv, v in zip(low.vehicles, problem.vehicles()):
+            xs, uu = lv.simulate(x)
+            dev = max(dev, float(np.max(np.abs(xs - x[lv.x]))) if res.x is not None else 0.0)
+            for i, c in enumerate(lv.states):
+                ch[c] = xs[:, i]
+            for j, c in enumerate(lv.inputs):
+                ch[c] = np.concatenate([uu[:, j], uu[-1:, j]]) if n > 1 else uu[:1, j]
+            vm = vehicles.model_of(v)
+            ch.update(vm.derived_channels(v, vehicles.state_matrix(v, ch)))
+        rho = -res.objective if low.top >= 0 and res.x is not None else float("nan")
+        bound = -res.bound if low.top >= 0 else float("nan")
+        failed = res.x is None
+        sol = Solution(
+            mission=problem.mission.name,
+            status=Verdict.SOLVER_FAILED if failed else Verdict.VIOLATED,
+            robustness_exact=float("nan"), robustness_smooth=rho, specs={}, energy=0.0,
+            times=problem.grid.times(), channels=ch,
+            timing={"build_s": low.build_s, "solve_s": res.wall_s},
+            solver={"name": "HiGHS MILP (highspy)", "return_status": str(status),
+                    "highs_status": res.status, "converged": status.converged,
+                    "objective": rho, "bound": bound,
+                    "gap": None if status.converged else _gap(rho, bound),
+                    "nodes": res.nodes, "iterations": res.nodes,
+                    "phases": [{"phase": p, "status": st, "wall_s": w}
+                               for p, st, w in getattr(self, "phases", [])],
+                    "max_state_deviation": dev},
+            smoothing={"method": "exact (MILP)", "lambda": problem.smoothing.lam,
+                       "lambda_final": problem.smoothing.lam,
+                       "threshold": problem.threshold},
+            problem_size={"samples": n, "variables": low.milp.n_cols,
+                          "constraints": len(low.milp.rows),
+                          "binaries": low.milp.n_binaries},
+            feasible=not failed and dev <= 1e-5)
+        if status == SolverStatus.MAX_TIME:
+            sol.notes.append(f"the MILP stopped on its time limit (not converged): best plan "
+                             f"ρ̂ = {rho:.6g}, bound {bound:.6g}")
+        return sol
+
+
+def _gap(obj: float, bound: float) -> float | None:
+    if not (np.isfinite(obj) and np.isfinite(bound)):
+        return None
+    return float(max(0.0, bound - obj))
+
+
+__all__ = ["ExactMilp", "build", "linear_model", "INF"]

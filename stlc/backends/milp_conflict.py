@@ -1,0 +1,242 @@
+"""Infeasibility, proved and explained: no plan can satisfy the mission, and which named
+specs conflict.
+
+When the verdict on a plan is not ``satisfied``, ``explain_infeasible`` asks whether *any*
+plan could be: it encodes the requirement (``milp_encode``) over a **relaxation** of the
+vehicles and asks HiGHS for a plan whose robustness reaches κ.  The relaxation contains
+every trajectory the real vehicles can fly on the mission grid, so "infeasible" there is a
+proof:
+
+* each vehicle becomes a double integrator in its position and velocity with *two*
+  independent inputs per interval, ā for the position and a' for the velocity:
+  p_{k+1} = p_k + Δt v_k + Δt²/2 ā_k,  v_{k+1} = v_k + Δt a'_k, both in the vehicle's sound
+  acceleration box and v_k in its speed box (``VehicleModel.kinematic_envelope``).  Any
+  flown trajectory with accelerations a(t) in the box has ā = (2/Δt²)∬a and a' = (1/Δt)∫a,
+  weighted means of a(t) and so in the (convex) box; RK4's and Euler's sample-to-sample maps
+  are such means of their stage accelerations too, so the real discrete models are inside;
+* every predicate that reads anything but positions and velocities (attitude, rotor speed,
+  speed norm, payload, an input) is replaced by ``true``: the formula is in negation normal
+  form, hence monotone in its predicates, so this can only raise the robustness.
+
+Linear vehicles planned with their zero-order-hold model (the point mass; the NLP's RK4 is
+exact on it) need no relaxation: the proof uses their own discrete dynamics and every
+predicate affine in their states and inputs.
+
+Only HiGHS's own ``Infeasible`` counts as a proof (a time limit proves nothing: the verdict
+stays what it was).  The conflict is then a minimal set of the named specs the mission
+requires (a deletion filter: drop a spec, keep it out if the rest is still infeasible), with
+the mission's `require` line added only when the specs alone can all hold.  The solution gets
+``status = infeasible``, ``conflict`` and an STL504 diagnostic at the mission.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from stlc import vehicles
+from stlc.backends.milp_backend import build
+from stlc.backends.milp_encode import NotLinear
+from stlc.backends.milp_model import Highs
+from stlc.diagnostics import Diagnostic
+from stlc.semantics import ir
+
+TOL = 1e-6  #: a plan within this of κ counts as reaching it (never call a feasible one infeasible)
+SOLVE_LIMIT_S = 15.0
+TOTAL_LIMIT_S = 40.0
+MAX_CELLS = 400_000  #: samples × vehicles × formula size beyond which no proof is attempted
+REQUIRE = "require"
+
+
+def exact_model(problem) -> bool:
+    """Every vehicle is linear and planned with its zero-order-hold model (the NLP's RK4 is
+    exact on it): the proof may use the vehicles' own discrete dynamics, not a relaxation."""
+    from stlc.backends.milp_backend import linear_model
+
+    return (str(problem.mission.options.get("integrator", "rk4")) == "rk4"
+            and all(linear_model(v) is not None for v in problem.vehicles()))
+
+
+def relaxed_vehicle(problem):
+    """The relaxation of each vehicle (see the module docstring), or None if a vehicle's
+    model offers no kinematic envelope."""
+    dt = problem.grid.dt
+
+    def lins(v):
+        vm = vehicles.model_of(v)
+        vmax, alo, ahi = vm.kinematic_envelope(v)
+        sc = vm.state_channels(v)
+        x0 = problem.start_states.get(v.name, vm.initial_state(v))
+        pos, vel = sc[vm.pos_index()], sc[vm.vel_index()]
+        x0 = np.concatenate([np.asarray(x0)[vm.pos_index()], np.asarray(x0)[vm.vel_index()]])
+        eye = np.eye(3)
+        ad = np.block([[eye, dt * eye], [np.zeros((3, 3)), eye]])
+        bd = np.block([[dt * dt / 2 * eye, np.zeros((3, 3))], [np.zeros((3, 3)), dt * eye]])
+
+        class B:
+            x_lo = np.concatenate([np.full(3, -np.inf), -np.asarray(vmax, float)])
+            x_hi = np.concatenate([np.full(3, np.inf), np.asarray(vmax, float)])
+            u_lo = np.concatenate([alo, alo])
+            u_hi = np.concatenate([ahi, ahi])
+
+        inputs = [f"__relax.{v.name}.{w}.{a}" for w in ("pbar", "vbar") for a in "xyz"]
+        return list(pos) + list(vel), inputs, ad, bd, B, x0
+
+    for v in problem.vehicles():
+        if getattr(vehicles.model_of(v), "kinematic_envelope", None) is None:
+            return None
+    return lins
+
+
+def _kept_channels(problem) -> set[str]:
+    out = set(problem.fixed_channels)
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        sc = vm.state_channels(v)
+        out |= set(sc[vm.pos_index()]) | set(sc[vm.vel_index()])
+    return out
+
+
+def _drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
+    """``f`` with every predicate that is not affine (a distance, a norm) made to read a
+    signal no relaxation keeps, so that ``restrict`` replaces it by ``true`` (sound: the
+    formula is in NNF)."""
+    from stlc.backends.milp_encode import affine
+
+    hit = memo.get(id(f))
+    if hit is not None:
+        return hit[1]
+    if isinstance(f, ir.Pred):
+        try:
+            affine(f.expr, params, f)
+            out = f
+        except (NotLinear, ValueError):
+            out = ir.Pred(ir.Sig("__nonlinear"), f.label, f.span)
+    else:
+        out = ir.map_children(f, lambda g: _drop_nonlinear(g, params, memo))
+    memo[id(f)] = (f, out)
+    return out
+
+
+def required_specs(problem) -> list[str]:
+    """The named specs the requirement requires (a conjunct of it, or all of a spec's
+    conjuncts are conjuncts of it)."""
+    req = problem.requirement
+    parts = set(req.args) if isinstance(req, ir.And) else {req}
+    out = []
+    for name, s in problem.specs.items():
+        f = s.normal
+        if f in parts or f == req or (isinstance(f, ir.And) and set(f.args) <= parts):
+            out.append(name)
+    return out
+
+
+class _Checker:
+    """One model with a switchable row ``ρ(element) ≥ κ − TOL`` per element (the model is
+    built once; each check only changes row bounds)."""
+
+    def __init__(self, problem, formulas: dict[str, ir.Formula], lins):
+        low = build(problem, formulas, lins)
+        self.kappa = problem.threshold - TOL
+        self.rows: dict[str, int | None] = {}
+        self.const: dict[str, float] = {}
+        for name, t in low.terms.items():
+            self.const[name] = t.const
+            self.rows[name] = (None if t.is_const else
+                               low.milp.row(dict(t.coefs), -np.inf, np.inf))
+        self.h = Highs(low.milp, {})
+
+    def infeasible(self, names, limit: float) -> bool | None:
+        """True: proved infeasible; False: feasible; None: not decided in time."""
+        if any(self.rows[n] is None and self.const[n] < self.kappa for n in names):
+            return True
+        for n, r in self.rows.items():
+            if r is not None:
+                lo = self.kappa - self.const[n] if n in names else -np.inf
+                self.h.set_row_bounds(r, lo, np.inf)
+        self.h.h.setOptionValue("time_limit", float(max(limit, 0.05)))
+        res = self.h.solve()
+        if res.status == "Infeasible":
+            return True
+        return False if res.x is not None else None
+
+
+def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
+    """Prove that no plan satisfies ``problem`` and name a minimal conflict; on a proof,
+    mark ``sol`` infeasible (status, conflict, STL504) and return True."""
+    exact = exact_model(problem)
+    lins = None if exact else relaxed_vehicle(problem)
+    if lins is None and not exact:
+        return False
+    keep = _kept_channels(problem)
+    if exact:
+        from stlc.backends.milp_backend import planned_channels
+
+        keep |= planned_channels(problem)
+    restrict = lambda f: ir.restrict(_drop_nonlinear(f, problem.params, {}),  # noqa: E731
+                                     lambda s: s in keep)
+    req = restrict(problem.requirement)
+    size = sum(1 for _ in ir.nodes(problem.requirement))
+    if problem.grid.n * len(problem.team) * size > MAX_CELLS:
+        return False
+    specs = required_specs(problem)
+    formulas = {REQUIRE: req, **{n: restrict(problem.specs[n].normal) for n in specs}}
+    t0 = time.perf_counter()
+    try:
+        ck = _Checker(problem, formulas, lins)
+    except (NotLinear, ValueError):
+        return False
+    left = lambda: TOTAL_LIMIT_S - (time.perf_counter() - t0)  # noqa: E731
+    if ck.infeasible([REQUIRE], min(SOLVE_LIMIT_S, left())) is not True:
+        return False
+    # a minimal conflict among the required specs (the `require` line only if needed)
+    elements = list(specs)
+    if not elements or ck.infeasible(elements, min(SOLVE_LIMIT_S, left())) is not True:
+        elements = [*specs, REQUIRE]
+    minimal = True
+    for e in list(elements):
+        rest = [x for x in elements if x != e]
+        if not rest:
+            continue
+        verdict = ck.infeasible(rest, min(SOLVE_LIMIT_S, max(left(), 0.05)))
+        if verdict is True:
+            elements = rest
+        elif verdict is None:
+            minimal = False
+    _mark(problem, sol, elements, minimal, time.perf_counter() - t0, quiet, exact)
+    return True
+
+
+def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: bool,
+          exact: bool = False) -> None:
+    m = problem.mission
+    named = [f"`{c}`" for c in conflict if c != REQUIRE]
+    kappa = problem.threshold
+    margin = f" with margin κ = {kappa:g}" if kappa > 0 else ""
+    if len(named) >= 2:
+        what = f"specs {', '.join(named[:-1])} and {named[-1]} conflict"
+    elif len(named) == 1:
+        what = f"spec {named[0]} cannot hold{margin}"
+    else:
+        what = f"its requirement cannot hold{margin}"
+    if named and REQUIRE in conflict:
+        what += " under its `require`"
+    sol.status = "infeasible"
+    sol.conflict = list(conflict)
+    sol.solver["infeasibility"] = {
+        "proved": True, "conflict": list(conflict), "minimal": minimal, "wall_s": wall,
+        "relaxation": ("none: the vehicles' own linear discrete dynamics (exact)" if exact else
+                       "double integrator per vehicle with independent position and velocity "
+                       "accelerations in the vehicle's acceleration box, speed box; "
+                       "predicates on other signals replaced by true")}
+    sol.notes.insert(0, f"no plan exists: {what} (proved by a MILP over a relaxation that "
+                     "contains every trajectory the vehicles can fly)")
+    sol.diagnostics.append(Diagnostic(
+        "STL504", f"no plan can satisfy mission `{m.name}`: {what}", m.span,
+        "relax or drop one of the conflicting specs" + ("" if minimal else
+                                                         " (the set may not be minimal: a "
+                                                         "check ran out of time)")))
+    if not quiet:
+        print(f"{m.name}: no plan exists — {what} ({wall:.1f} s)", file=sys.stderr)

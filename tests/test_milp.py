@@ -1,0 +1,271 @@
+"""The exact STL→MILP backend, the chain selection and the infeasibility proof.
+
+Property tests (Hypothesis): for random small formulas over a point mass, the MILP's optimum
+equals the exact monitor's robustness of its own plan, and no random dynamically feasible
+trajectory has a higher robustness (brute force through the same discrete model)."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stlc.analysis import monitor
+from stlc.backends.base import run_chain
+from stlc.backends.milp_backend import ExactMilp
+from stlc.backends.select import select
+from stlc.diagnostics import StlcError
+from stlc.pipeline import load
+from stlc.planning.problem import from_mission
+from stlc.semantics import ir, nnf
+
+BASE = """\
+vehicle d1 : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (2, 2, 2) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+mission m {
+  vehicles = [d1]
+  horizon = 3 s
+  step = 0.5 s
+  require always[0, 3] (d1.pos.z >= 0 m)
+  maximize robustness
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def base_problem(tmp_path_factory):
+    p = tmp_path_factory.mktemp("milp") / "base.stl"
+    p.write_text(BASE, encoding="utf-8")
+    prog = load(str(p)).program
+    return from_mission(prog, prog.missions["m"])
+
+
+def _pred(sig: str, lower: bool, c: float) -> ir.Pred:
+    e = (ir.Bin("-", ir.Sig(sig), ir.Const(c)) if lower
+         else ir.Bin("-", ir.Const(c), ir.Sig(sig)))
+    return ir.Pred(e, f"{sig} {'>=' if lower else '<='} {c}")
+
+
+SIGS = ("d1.pos.x", "d1.pos.y", "d1.vel.x")
+preds = st.builds(_pred, st.sampled_from(SIGS), st.booleans(),
+                  st.sampled_from([-1.5, -0.5, 0.0, 0.4, 1.0, 1.6]))
+windows = st.sampled_from([(0.0, 1.0), (0.5, 1.5), (0.0, 2.0), (1.0, 1.0)])
+
+
+def _extend(children):
+    return st.one_of(
+        st.builds(lambda a, b: ir.And((a, b)), children, children),
+        st.builds(lambda a, b: ir.Or((a, b)), children, children),
+        st.builds(lambda a, b, c: ir.Or((a, b, c)), children, children, children),
+        st.builds(lambda w, a: ir.Always(*w, a), windows, children),
+        st.builds(lambda w, a: ir.Eventually(*w, a), windows, children),
+        st.builds(lambda w, a, b: ir.Until(*w, a, b), windows, children, children),
+        st.builds(lambda a: ir.Not(a), children),
+        st.builds(lambda a: ir.Next(a), children),
+    )
+
+
+formulas = st.recursive(preds, _extend, max_leaves=5)
+
+
+def _random_plans(problem, count: int, seed: int) -> list[dict]:
+    """Random dynamically feasible trajectories: random inputs in bounds (bang-bang and
+    uniform), integrated exactly, velocities kept in bounds by clipping the inputs."""
+    rng = np.random.default_rng(seed)
+    n, dt = problem.grid.n, problem.grid.dt
+    out = []
+    for i in range(count):
+        p = np.array([0.0, 0.0, 1.0])
+        v = np.zeros(3)
+        P, V, A = [p.copy()], [v.copy()], []
+        for _ in range(n - 1):
+            a = rng.choice([-2.0, 0.0, 2.0], 3) if i % 2 else rng.uniform(-2, 2, 3)
+            a = np.clip(a, (-1 - v) / dt, (1 - v) / dt)  # next velocity within ±1
+            p = p + v * dt + 0.5 * a * dt * dt
+            v = v + a * dt
+            P.append(p.copy()), V.append(v.copy()), A.append(a)
+        A.append(A[-1])
+        P, V, A = map(np.array, (P, V, A))
+        ch = {}
+        for j, ax in enumerate("xyz"):
+            ch[f"d1.pos.{ax}"], ch[f"d1.vel.{ax}"], ch[f"d1.acc.{ax}"] = P[:, j], V[:, j], A[:, j]
+        out.append(ch)
+    return out
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(f=formulas, log=st.booleans())
+def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f, log):
+    """Both disjunction encodings: one binary per operand, and the logarithmic one."""
+    req = nnf.normalize(f)
+    problem = replace(base_problem, requirement=req)
+    with _encoding(log):
+        sol, _ = run_chain(problem, [ExactMilp(time_limit=60)])
+    assert sol.solver["return_status"] == "optimal"
+    dt = problem.grid.dt
+    rho = float(monitor.robustness(req, dt, sol.channels, problem.params))
+    obj = sol.solver["objective"]
+    if math.isinf(rho) or math.isnan(obj):
+        # a formula whose value is a constant (an empty window): the plan's value is it
+        assert math.isnan(obj) or math.isinf(obj) or rho == obj
+    else:
+        assert abs(rho - obj) <= 1e-6, (rho, obj)
+    for ch in _random_plans(problem, 30, seed=hash(f) & 0xFFFF):
+        other = float(monitor.robustness(req, dt, ch, problem.params))
+        assert other <= rho + 1e-6, (other, rho)
+
+
+@contextlib.contextmanager
+def _encoding(log: bool):
+    old = os.environ.get("STLC_MILP_ONE_HOT")
+    os.environ["STLC_MILP_ONE_HOT"] = "2" if log else "1000000"
+    try:
+        yield
+    finally:
+        if old is None:
+            del os.environ["STLC_MILP_ONE_HOT"]
+        else:
+            os.environ["STLC_MILP_ONE_HOT"] = old
+
+
+@pytest.mark.parametrize("log, binaries", [(True, 3), (False, 7)])
+def test_log_binaries_for_a_wide_disjunction(base_problem, log, binaries):
+    """An `eventually` over 7 samples uses ⌈log2 7⌉ = 3 binaries (Gray code) or 7."""
+    f = ir.Eventually(0.0, 3.0, _pred("d1.pos.x", True, 1.0))
+    problem = replace(base_problem, requirement=f)
+    with _encoding(log):
+        sol, _ = run_chain(problem, [ExactMilp()])
+    assert sol.problem_size["binaries"] == binaries
+    # by hand: from rest with |v| ≤ 1 m/s, |a| ≤ 2 m/s²: 0.5 s at 2 m/s² (0.25 m, 1 m/s),
+    # then 2.5 s at 1 m/s: x(3 s) = 2.75 m, so the margin of x ≥ 1 m is 1.75 m
+    assert abs(sol.solver["objective"] - 1.75) < 1e-9
+    assert abs(monitor.robustness(f, 0.5, sol.channels, {}) - 1.75) < 1e-9
+
+
+def test_nonlinear_predicate_refused_at_its_span(tmp_path):
+    src = BASE.replace("require always[0, 3] (d1.pos.z >= 0 m)",
+                       "require always[0, 3] (d1.speed <= 0.5 m/s)")
+    p = tmp_path / "s.stl"
+    p.write_text(src, encoding="utf-8")
+    prog = load(str(p)).program
+    problem = from_mission(prog, prog.missions["m"])
+    diags = ExactMilp().accepts(problem)
+    assert diags and all(d.code == "STL401" and d.span.line == 10 for d in diags)
+    assert select(problem).name == "nlp"  # chosen by capability: the NLP plans it
+    with pytest.raises(StlcError):
+        run_chain(problem, select(problem, "milp").backends)
+
+
+def test_selection_by_capability():
+    root = Path(__file__).parent.parent
+    hand = load(str(root / "specs" / "handover.stl")).program
+    m = next(iter(hand.missions.values()))
+    assert select(from_mission(hand, m)).name == "nlp"  # a multirotor is not linear
+    team = load(str(root / "specs" / "bird_diverter_2x7.stl")).program
+    m = next(iter(team.missions.values()))
+    assert select(from_mission(team, m)).name == "team"
+    assert select(from_mission(team, m), "casadi").name == "nlp"  # forced by backend name
+
+
+def _compile(path: Path, out: Path, *extra: str) -> tuple[int, dict, str]:
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parent.parent))
+    r = subprocess.run([sys.executable, "-m", "stlc", "compile", str(path), "-o", str(out),
+                        "--no-risk", *extra], capture_output=True, text=True, env=env,
+                       timeout=300)
+    sol = json.loads((out / "solution.json").read_text()) if (out / "solution.json").exists() \
+        else {}
+    return r.returncode, sol, r.stderr
+
+
+INFEASIBLE = """\
+vehicle d1 : point_mass {
+  vel_max = (2, 2, 2) m/s
+  acc_max = (3, 3, 3) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+scenario {
+  workspace = box((-10, -10, 0), (10, 10, 3)) m
+  region east = box((3, -1, 0.5), (5, 1, 1.5)) m
+  region west = box((-5, -1, 0.5), (-3, 1, 1.5)) m
+}
+spec safe = always[0, 12] (d1.pos in workspace)
+mission two_places {
+  vehicles = [d1]
+  horizon = 12 s
+  step = 0.5 s
+  spec at_east = always[5, 6] (d1.pos in east)
+  spec at_west = always[5, 6] (d1.pos in west)
+  spec high = always[0, 12] (d1.pos.z <= 2.5 m)
+  require safe and at_east and at_west and high
+  maximize robustness
+}
+"""
+
+
+def test_two_places_at_once_is_proved_infeasible(tmp_path):
+    p = tmp_path / "inf.stl"
+    p.write_text(INFEASIBLE, encoding="utf-8")
+    code, sol, err = _compile(p, tmp_path / "out")
+    assert code == 3
+    assert sol["status"] == "infeasible"
+    assert sorted(sol["conflict"]) == ["at_east", "at_west"]  # minimal: not safe, not high
+    assert "STL504" in err and "chain `milp`" in err
+    assert "No plan exists" in (tmp_path / "out" / "report.html").read_text()
+    assert sol["solver"]["chain"]["name"] == "milp"
+
+
+def test_feasible_variant_is_planned_and_not_called_infeasible(tmp_path):
+    # 2 s apart instead of at the same time: 8 m in 2 s at 2 m/s... too tight with the
+    # acceleration phase, so 5 s apart: feasible, satisfied by the exact backend
+    src = INFEASIBLE.replace("always[5, 6] (d1.pos in west)", "always[11, 12] (d1.pos in west)")
+    p = tmp_path / "ok.stl"
+    p.write_text(src, encoding="utf-8")
+    code, sol, _ = _compile(p, tmp_path / "out", "-q")
+    assert code == 0 and sol["status"] == "satisfied" and "conflict" not in sol
+    assert abs(sol["robustness"]["exact"] - sol["solver"]["objective"]) < 1e-6
+
+
+def test_mission_field_forces_a_backend(tmp_path):
+    src = INFEASIBLE.replace("  maximize robustness\n}", "  maximize robustness\n  backend = nope\n}")
+    p = tmp_path / "f.stl"
+    p.write_text(src, encoding="utf-8")
+    prog = load(str(p)).program
+    problem = from_mission(prog, prog.missions["two_places"])
+    with pytest.raises(StlcError) as e:
+        select(problem)
+    assert e.value.diagnostics[0].code == "STL207"
+
+
+BENCH = Path(__file__).parent.parent / "specs" / "benchmarks"
+
+
+@pytest.mark.parametrize("path", sorted(BENCH.glob("*.stl")), ids=lambda p: p.name)
+def test_stlpy_reencodings_check_and_choose_the_exact_backend(path):
+    program = load(str(path)).program
+    for m in program.missions.values():
+        assert select(from_mission(program, m)).name == "milp"
+
+
+def test_reach_avoid_benchmark_is_planned_to_its_optimum():
+    """stlpy's ReachAvoid: the best margin is the goal's half-width 0.5 (by hand: the goal
+    is a 1 m square reachable in 15 s, the obstacle is avoidable with more margin)."""
+    program = load(str(BENCH / "reach_avoid.stl")).program
+    from stlc.pipeline import plan
+
+    _, sol = plan(program, program.missions["reach_avoid"])
+    assert sol.status == "satisfied" and sol.solver["return_status"] == "optimal"
+    assert sol.robustness_exact == pytest.approx(0.5, abs=1e-6)
+    assert sol.solver["objective"] == pytest.approx(sol.robustness_exact, abs=1e-6)
