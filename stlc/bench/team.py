@@ -15,6 +15,14 @@ prints per run and as medians: wall time, CPU time of the child (user + system, 
 assignment method and time, IPOPT iterations and status, verdict and exact robustness:
 
     python -m stlc.bench.team --compile specs/bird_diverter_2x7.stl specs/bird_diverter_4x11.stl
+
+``formulations(paths, repeats, budget)`` solves the assignment of each mission with every
+formulation (``routes``: column generation, the default; ``arcs``: lazy cuts; ``trips``:
+the trip model of ``stlc.team.partition``) within ``budget`` wall seconds, and prints per
+instance and formulation the median wall and CPU time, the objective, the lower bound and
+whether optimality was proved (else the gap):
+
+    python -m stlc.bench.team --formulations tests/missions/bird_diverter_3x9.stl
 """
 
 from __future__ import annotations
@@ -120,10 +128,55 @@ def scaling(paths: list[str], repeats: int = 3) -> list[dict]:
     return rows
 
 
+def _trips_model(sc, budget: float) -> dict:
+    from stlc.team import partition
+    from stlc.team.arcs import build_arcs, dwell_times
+
+    w0, c0 = time.perf_counter(), time.process_time()
+    arcs = build_arcs(sc)
+    out = partition.solve(sc, arcs, sc.horizon - dwell_times(sc)[1],
+                          max(budget - (time.perf_counter() - w0), 0.01))
+    return {"wall": time.perf_counter() - w0, "cpu": time.process_time() - c0,
+            "obj": out.objective, "bound": out.bound, "optimal": out.status == "optimal"}
+
+
+def formulations(paths: list[str], repeats: int = 3, budget: float = 30.0,
+                 which=("routes", "arcs", "trips")) -> list[dict]:
+    rows = []
+    for path in paths:
+        program = load(path).program
+        for mission in program.missions.values():
+            sc = scenario_from_program(program, mission, separation=3.0)
+            for form in which:
+                runs = []
+                for _ in range(repeats if form == "routes" else 1):
+                    if form == "trips":
+                        runs.append(_trips_model(sc, budget))
+                        continue
+                    _, st = assign(sc, formulation=form, budget_s=budget)
+                    runs.append({"wall": st.wall_s, "cpu": st.cpu_s, "obj": st.objective,
+                                 "bound": st.bound, "optimal": st.method == "milp"})
+                r = runs[0]
+                gap = (r["obj"] - r["bound"]) / r["obj"] if r["obj"] > 0 else 0.0
+                row = {"mission": mission.name, "formulation": form, "runs": len(runs),
+                       "wall": statistics.median(x["wall"] for x in runs),
+                       "cpu": statistics.median(x["cpu"] for x in runs), "obj": r["obj"],
+                       "bound": r["bound"], "optimal": all(x["optimal"] for x in runs),
+                       "gap": gap}
+                rows.append(row)
+                print(f"| {row['mission']} | {form} | {row['wall']:.2f} | {row['cpu']:.2f} | "
+                      f"{row['obj']:.2f} | {row['bound']:.2f} | "
+                      + ("optimal" if row["optimal"] else f"gap {100 * gap:.1f} %")
+                      + f" | {len(runs)} |", flush=True)
+    return rows
+
+
 if __name__ == "__main__":
     args = sys.argv[1:]
     if args and args[0] == "--compile":
         scaling(args[1:])
+    elif args and args[0] == "--formulations":
+        formulations(args[1:])
     else:
         for p in args:
             main(p)

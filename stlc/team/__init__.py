@@ -4,8 +4,10 @@ The package splits the initial guess of paper B §IV-B into independent pieces:
 
 * :mod:`stlc.team.payload` — the payload rule: the diverters on board as a function of the
   positions alone, plus the list of install / refill events;
-* :mod:`stlc.team.milp` — the task-assignment MILP (eq. 7) with lazy sub-tour and
-  capacity cuts;
+* :mod:`stlc.team.milp` — the task assignment (eq. 7): set partitioning over routes by
+  column generation (:mod:`stlc.team.colgen`, :mod:`stlc.team.pricing`,
+  :mod:`stlc.team.trips`), the arc model with lazy cuts (:mod:`stlc.team.lazy`), a trip
+  model (:mod:`stlc.team.partition`), horizon bounds (:mod:`stlc.team.horizon`);
 * :mod:`stlc.team.primitives` — closed-form rest-to-rest motion primitives with per-axis
   velocity and acceleration bounds;
 * :mod:`stlc.team.seed` — the seed trajectory of every drone on the dense grid, and the

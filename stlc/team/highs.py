@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 FEAS_TOL = 1e-6
+MAX_TIME_S = 300.0  # the time limit of a HiGHS call that was given none (or an infinite one)
 
 
 @dataclass
@@ -69,7 +70,10 @@ def solve_binary(cost: np.ndarray, integer: np.ndarray, a_eq: sp.csr_matrix, b_e
                  time_limit: float | None = None, start: np.ndarray | None = None,
                  options: dict | None = None) -> Result:
     """Minimise ``cost·x`` over ``x ∈ [0, 1]`` (``integer`` marks the binaries; the other
-    columns are continuous in [0, ∞)) subject to ``a_eq x = b_eq`` and ``a_ub x ≤ b_ub``."""
+    columns are continuous in [0, ∞)) subject to ``a_eq x = b_eq`` and ``a_ub x ≤ b_ub``.
+    No solve runs without a time limit: ``None`` or an infinite one is ``MAX_TIME_S``."""
+    if time_limit is None or not np.isfinite(time_limit):
+        time_limit = MAX_TIME_S
     _quiet_banner()
     n = len(cost)
     cost = np.asarray(cost, dtype=float)
@@ -116,3 +120,60 @@ def solve_binary(cost: np.ndarray, integer: np.ndarray, a_eq: sp.csr_matrix, b_e
     if prob.status == cp.USER_LIMIT or (time_limit is not None and xv is not None):
         return Result("time", xv, obj, bound)
     return Result("error", xv, obj, bound)
+
+
+def solve_mip(cost: np.ndarray, integer: np.ndarray, upper: np.ndarray, a: sp.csc_matrix,
+              row_lo: np.ndarray, row_hi: np.ndarray, *, time_limit: float,
+              start: np.ndarray | None = None, options: dict | None = None) -> Result:
+    """Minimise ``cost·x`` over ``0 ≤ x ≤ upper`` (``integer`` marks the integer columns),
+    ``row_lo ≤ a x ≤ row_hi``, with HiGHS through ``highspy`` directly (no cvxpy): a model of
+    ~10⁵ columns is passed as one CSC matrix (cvxpy's canonicalisation of it took longer
+    than the solve), ``start`` is a real MIP start (``setSolution``: HiGHS keeps it as its
+    first incumbent, which cvxpy cannot pass), and the time limit, the incumbent and the dual
+    bound come from HiGHS's own status and info.  ``time_limit`` is mandatory."""
+    import highspy
+
+    _quiet_banner()
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("time_limit", min(max(float(time_limit), 1e-3), MAX_TIME_S))
+    h.setOptionValue("mip_rel_gap", 1e-6)
+    h.setOptionValue("threads", 1)
+    for k, v in (options or {}).items():
+        h.setOptionValue(k, v)
+    a = sp.csc_matrix(a)
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = a.shape[1], a.shape[0]
+    lp.col_cost_ = np.asarray(cost, dtype=float)
+    lp.col_lower_ = np.zeros(a.shape[1])
+    lp.col_upper_ = np.asarray(upper, dtype=float)
+    lp.row_lower_ = np.asarray(row_lo, dtype=float)
+    lp.row_upper_ = np.asarray(row_hi, dtype=float)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = a.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = a.indices.astype(np.int32)
+    lp.a_matrix_.value_ = a.data.astype(float)
+    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = a.shape[1], a.shape[0]
+    lp.integrality_ = [highspy.HighsVarType.kInteger if i else highspy.HighsVarType.kContinuous
+                       for i in np.asarray(integer, dtype=bool)]
+    h.passModel(lp)
+    if start is not None:
+        sol = highspy.HighsSolution()
+        sol.col_value = list(np.asarray(start, dtype=float))
+        sol.value_valid = True
+        h.setSolution(sol)
+    h.run()
+    status = h.getModelStatus()
+    info = h.getInfo()
+    ms = highspy.HighsModelStatus
+    has_x = info.primal_solution_status == 2  # kSolutionStatusFeasible
+    x = np.asarray(h.getSolution().col_value) if has_x else None
+    obj = float(cost @ x) if x is not None else np.inf
+    bound = float(info.mip_dual_bound) if np.isfinite(info.mip_dual_bound) else -np.inf
+    if status == ms.kOptimal:
+        return Result("optimal", x, obj, obj)
+    if status == ms.kInfeasible:
+        return Result("infeasible", None, np.inf, np.inf)
+    if status in (ms.kTimeLimit, ms.kInterrupt, ms.kSolutionLimit, ms.kIterationLimit):
+        return Result("time", x, obj, bound)
+    return Result("error", x, obj, bound)

@@ -29,6 +29,7 @@ keeping the best.  Everything is deterministic.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -115,8 +116,10 @@ def split(costs: Costs, d: int, seq: list[int], cap: int, stations: list[int],
 
 
 class Search:
-    def __init__(self, sc: TeamScenario, costs: Costs, limit: float, ins: float, rs: float):
+    def __init__(self, sc: TeamScenario, costs: Costs, limit: float, ins: float, rs: float,
+                 deadline: float = math.inf):
         self.sc, self.costs, self.limit, self.ins, self.rs = sc, costs, limit, ins, rs
+        self.deadline = deadline  # wall time (perf_counter) at which improving stops
         allowed = homes(sc, costs)
         self.allowed = allowed or [list(range(len(sc.stations)))] * len(sc.drones)
         self.caps = [d.capacity for d in sc.drones]
@@ -132,7 +135,7 @@ class Search:
         times = [self.time(d, s) for d, s in enumerate(seqs)]
         cur = self.score(times)
         nd = len(seqs)
-        while True:
+        while time.perf_counter() < self.deadline:
             best = None
             for a in range(nd):
                 for ia, j in enumerate(seqs[a]):
@@ -174,16 +177,17 @@ class Search:
                 return seqs, times
             cur, change, times = best
             seqs = [change.get(d, s) for d, s in enumerate(seqs)]
+        return seqs, times  # the deadline: the best so far
 
 
 def local_routes(sc: TeamScenario, leg, dwell: tuple[float, float], limit: float,
-                 start: dict[str, list[str]], kicks: int = 30, seed: int = 0
-                 ) -> dict[str, list[str]]:
+                 start: dict[str, list[str]], kicks: int = 30, seed: int = 0,
+                 deadline: float = math.inf) -> dict[str, list[str]]:
     """Routes (target and station names, ending at the home station) from the start routes
     ``start`` (e.g. the greedy ones; stations in them are ignored) — see the module doc."""
     ins, rs = dwell
     costs = Costs(sc, leg)
-    search = Search(sc, costs, limit, ins, rs)
+    search = Search(sc, costs, limit, ins, rs, deadline)
     tidx = {b.name: j for j, b in enumerate(sc.targets)}
     seqs = [[tidx[r] for r in start.get(d.name, []) if r in tidx] for d in sc.drones]
     for d, dr in enumerate(sc.drones):  # a drone that cannot carry hands its targets over
@@ -196,6 +200,8 @@ def local_routes(sc: TeamScenario, leg, dwell: tuple[float, float], limit: float
     rng = np.random.default_rng(seed)
     nd = len(seqs)
     for _ in range(kicks if nd > 1 else 0):
+        if time.perf_counter() >= deadline:
+            break
         cur = [list(s) for s in best[1]]
         for _ in range(2):
             a, b = rng.choice(nd, 2, replace=False)

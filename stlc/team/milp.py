@@ -1,58 +1,33 @@
-"""Task assignment (paper B, §IV-B, eq. 7): capacitated multi-depot routing as a MILP.
+"""Task assignment (paper B, §IV-B, eq. 7): capacitated multi-depot routing, solved exactly.
 
-Graph.  Nodes are each drone's depot (its start position), the targets (region centres)
-and the refilling stations (centres).  Per drone ``d`` there is one binary variable per
-directed arc: depot→target, depot→station (the drone serves nothing), target→target,
-target→station (refill or end), station→target (leave after a refill).  Without stations
-the routes end at a virtual sink (arcs target→sink, depot→sink).  Compared with the
-paper's undirected ``z ∈ {0,1,2}`` formulation this directed one gives the visiting order
-directly, allows a station to be used several times, and the same cuts apply.
+Graph and costs (``stlc.team.arcs``): each drone leaves its depot (start position), installs
+targets (region centres) in runs of at most its capacity, refills at stations between runs
+and ends at a station (a virtual sink when there are none); costs are the seed's times in
+seconds (rest-to-rest travel rounded up to whole steps, ``(n+1)``-step dwells); each route
+plus a final refilling dwell fits the horizon ``T_N``; when there are at least as many
+stations as drones a station serves one drone.  Objective: the total route time (eq. 7a, in
+time so that installs and refills count), plus ``w · max_d time_d`` if ``makespan_weight``.
 
-Constraints.  Every target is entered exactly once by the team (7b); a drone leaves every
-target it enters (7c); each drone leaves its depot once (7d); each drone ends at one
-station (per station: entries ≥ exits; over all stations: entries − exits = 1); when
-there are at least as many stations as drones, no two drones share a home station (two
-drones parked in one 2 m station cannot keep Γ_dis = 3 m apart); each drone's route time
-fits the horizon (below).  The initial cut pool holds the 2-target sub-tour cuts
-``Σ_d (x_dij + x_dji) ≤ 1``.  Eq. (7e) is added lazily: after each solve
-the incumbent is decomposed per drone, and for every violation a cut is added and the MILP
-re-solved, until none is violated:
+Formulations (measured, see the README's team table):
 
-* a component of a drone's arcs not connected to its depot (a cycle of targets, or a
-  closed tour through a station the drone never reaches), targets ``S`` and stations
-  ``R_C``:  for each ``j ∈ S``, arcs of ``d`` entering ``S ∪ R_C`` ≥ arcs of ``d`` entering
-  ``j``; for a target-only cycle also ``Σ_d Σ_{i,j∈S} x_dij ≤ |S| − 1`` (DFJ);
-* a segment (depot or station → targets → station) longer than the capacity ``c̄_d``:
-  for every window ``W`` of it longer than the capacity and every drone ``e`` with
-  ``c̄_e < |W|``: ``Σ_{i≠j∈W} x_eij ≤ |W| − ⌈|W|/c̄_e⌉`` (each run between stations holds
-  ≤ ``c̄_e`` targets), the fractional form ``Σ_{i≠j∈W} x_eij ≤ (1 − 1/c̄_e)·(targets of e
-  in W)``, and team-wide ``Σ_e Σ_{i≠j∈W} x_eij ≤ |W| − ⌈|W|/max_e c̄_e⌉``; all are valid
-  for every feasible route, so the solver cannot move the violation to another drone.
+* **routes** (default) — set partitioning over whole routes by column generation, exact
+  pricing over trips, a rounded refill-count row, and closing by reduced-cost enumeration
+  (``stlc.team.colgen`` over ``stlc.team.trips``).  Its LP bound is within 0.2 % of the
+  optimum on the shipped missions; 3×9 with a refill and 4×11 are proved optimal in about
+  a second, 6×16 in seconds.
+* **trips** — a compact model over trips with station flows (``stlc.team.partition``):
+  6–8 % LP gap (a drone's fractional trips may reuse a target across trips), 60 s without
+  closing 3×9; kept to prove a model infeasible when the route formulation cannot.
+* **arcs** — the directed arc model with lazy sub-tour / capacity cuts
+  (``stlc.team.lazy``), the formulation of earlier versions: 14 s on 3×9, no close on 6×16
+  in 30 s.  Used for a makespan weight and when the trips are too many to enumerate
+  (``MAX_TRIPS``).
 
-Costs are times, in seconds, exactly those of the seed trajectory (``stlc.team.seed``):
-travel = the rest-to-rest primitive's minimum duration between the points (per-axis
-``v̄``, ``ā``), rounded up to whole mission steps; dwell = ``(n+1)`` steps per visit
-(``n = ⌈T/Δt⌉``: the payload rule's dwell plus one sample of margin), charged on arcs into
-a target (install) and on arcs out of a station (refill).  Horizon: each drone's route
-time plus a final refilling dwell at home must be ≤ ``T_N`` (conservative: the refill
-requirement then holds whatever the drone carries when it gets home).
-
-Objective: ``Σ_d time_d`` — the paper's total (eq. 7a), in time rather than distance so
-that installs and refills count — plus ``w · max_d time_d`` if ``makespan_weight = w > 0``.
-The default is ``w = 0``: the horizon is already a hard per-drone constraint, and the max
-term weakens the LP bound so much that even the 2×7 mission did not solve in 5 minutes.
-With ``w = 0`` a drone whose help does not pay for its travel goes straight home.
-
-Solver and budget.  Every round is solved by HiGHS through ``stlc.team.highs`` (highspy).
-The loop has a wall-time budget (``BUDGET_S``); when it is still running after
-``WARM_AFTER_S`` the heuristic of ``stlc.team.local`` (greedy start, local search, own
-station per drone) is computed and handed to HiGHS as the starting incumbent of every
-later round — it satisfies every row, lazy ones included.  Past the budget the answer is
-the best feasible assignment known (HiGHS's incumbent if it violates no lazy row, else the
-heuristic's), not optimal, with the stopped round's dual bound as a lower bound of the
-optimum (``AssignStats.bound``).  Measured: 2×7 and 4×11 finish in 0.1 s / ≈3 s (cold);
-6×16 does not (6 rounds, ≈460 cuts in 30 s), and the heuristic's Σ is within 14 % of the
-bound there.
+Budget.  Everything runs under one wall budget (``BUDGET_S``), every HiGHS solve has a time
+limit.  Past it the answer is the best feasible assignment known — the route model's
+incumbent, else the heuristic of ``stlc.team.local`` — reported as not optimal with the
+lower bound.  A horizon too short is answered from lower bounds of the route times
+(``stlc.team.horizon``) or from a model proved infeasible, never from an unbudgeted solve.
 """
 
 from __future__ import annotations
@@ -62,7 +37,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from stlc.team import AssignmentError, TeamScenario
 from stlc.team.arcs import (  # noqa: F401  (re-exported: the MILP's cost model)
@@ -73,16 +47,14 @@ from stlc.team.arcs import (  # noqa: F401  (re-exported: the MILP's cost model)
     leg_time,
     route_time,
 )
-from stlc.team.cuts import cuts_for, segments, station_shared
-from stlc.team.highs import Result, solve_binary
+from stlc.team.lazy import Budget, lazy_solve, route
 from stlc.team.paths import router_for
 
-#: options passed to HiGHS; presolve off: on these small models it costs more than it saves
-#: (4×11 mission: 2.3 s instead of 3.5 s CPU over the lazy rounds)
-HIGHS_OPTIONS: dict[str, object] = {"presolve": "off"}
-BUDGET_S = 30.0  # wall seconds for the exact MILP before the best known assignment is used
-WARM_AFTER_S = 10.0  # wall seconds before the heuristic is computed and warm-starts HiGHS
-Node = tuple[str, int]  # ("D", drone) | ("T", target) | ("S", station) | ("E", 0)
+BUDGET_S = 30.0  # wall seconds for the exact assignment before the best known one is used
+WARM_AFTER_S = 10.0  # arcs model: wall seconds before the heuristic warm-starts HiGHS
+HEURISTIC_S = 2.0  # wall seconds the local search may run past the exhausted budget
+MAX_TRIPS = 400_000
+PROOF_TRIPS = 20_000  # trips up to which the trip model may prove infeasibility  # trip columns the route model enumerates at most (else: arcs model)
 
 
 @dataclass
@@ -102,227 +74,8 @@ class AssignStats:
     #: lower bound of the optimal objective (= objective when optimal; the stopped
     #: round's dual bound otherwise; -inf if unknown)
     bound: float = -math.inf
-
-
-
-class _Model:
-    """The MILP rows (sparse) plus the lazily added cuts."""
-
-    def __init__(self, sc: TeamScenario, arcs: list[Arc], horizon_limit: float | None,
-                 makespan_weight: float) -> None:
-        self.sc, self.arcs, self.w = sc, arcs, makespan_weight
-        n = len(arcs)
-        eq: list[tuple[dict[int, float], float]] = []
-        ub: list[tuple[dict[int, float], float]] = []
-        nd, nt, ns = len(sc.drones), len(sc.targets), len(sc.stations)
-        for d in range(nd):
-            eq.append(({k: 1.0 for k, a in enumerate(arcs) if a.tail == ("D", d)}, 1.0))
-            for j in range(nt):
-                row = {k: 1.0 for k, a in enumerate(arcs) if a.drone == d and a.head == ("T", j)}
-                for k, a in enumerate(arcs):
-                    if a.drone == d and a.tail == ("T", j):
-                        row[k] = row.get(k, 0.0) - 1.0
-                eq.append((row, 0.0))
-            if ns:
-                tot: dict[int, float] = {}
-                for s in range(ns):
-                    row = {}
-                    for k, a in enumerate(arcs):
-                        if a.drone == d and a.head == ("S", s):
-                            row[k] = -1.0
-                        elif a.drone == d and a.tail == ("S", s):
-                            row[k] = 1.0
-                    ub.append((row, 0.0))  # exits - entries <= 0
-                    for k, v in row.items():
-                        tot[k] = tot.get(k, 0.0) - v
-                eq.append((tot, 1.0))
-            else:
-                eq.append(({k: 1.0 for k, a in enumerate(arcs)
-                            if a.drone == d and a.head == ("E", 0)}, 1.0))
-            if horizon_limit is not None:
-                ub.append(({k: a.cost for k, a in enumerate(arcs) if a.drone == d},
-                           horizon_limit))
-        for j in range(nt):
-            eq.append(({k: 1.0 for k, a in enumerate(arcs) if a.head == ("T", j)}, 1.0))
-        # initial cut pool: no 2-cycles between targets (sub-tour cuts with |S| = 2)
-        self.inner_arcs = [k for k, a in enumerate(arcs) if a.tail[0] == a.head[0] == "T"]
-        pair: dict[frozenset, dict[int, float]] = {}
-        for k in self.inner_arcs:
-            pair.setdefault(frozenset((arcs[k].tail[1], arcs[k].head[1])), {})[k] = 1.0
-        ub += [(row, 1.0) for row in pair.values()]
-        if 0 < nd <= ns:  # one drone per home station (entries - exits = 1 there)
-            for s in range(ns):
-                row = {}
-                for k, a in enumerate(arcs):
-                    if a.head == ("S", s):
-                        row[k] = row.get(k, 0.0) + 1.0
-                    elif a.tail == ("S", s):
-                        row[k] = row.get(k, 0.0) - 1.0
-                ub.append((row, 1.0))
-            # ... and no drone refills at another drone's home: a station is used by one
-            # drone at most (usage binaries y[d, s] after the arc variables), so no two
-            # drones ever share a 2 m station that cannot keep them Γ_dis apart
-            # (added lazily, like eq. 7e: most instances never put two drones in a station)
-            shared: list[tuple[dict[int, float], float]] = []
-            for s in range(ns):
-                ys = []
-                for d in range(nd):
-                    y = n + len(ys) + s * nd
-                    ys.append(y)
-                    for k, a in enumerate(arcs):
-                        if a.drone == d and a.head == ("S", s):
-                            shared.append(({k: 1.0, y: -1.0}, 0.0))
-                shared.append(({y: 1.0 for y in ys}, 1.0))
-            n_extra = nd * ns
-        else:
-            n_extra, shared = 0, []
-        self.station_rows = shared
-        self.seen: set[frozenset] = set()
-        self.n, self.eq, self.ub = n + n_extra, eq, ub
-        self.cost = np.concatenate([[a.cost for a in arcs], np.zeros(n_extra)])
-        self.drone_of = np.concatenate([[a.drone for a in arcs], -np.ones(n_extra, dtype=int)])
-
-    @staticmethod
-    def _matrix(rows: list[tuple[dict[int, float], float]], n: int):
-        data, ri, ci = [], [], []
-        for r, (row, _) in enumerate(rows):
-            for c, v in row.items():
-                ri.append(r)
-                ci.append(c)
-                data.append(v)
-        a = sp.csr_matrix((data, (ri, ci)), shape=(len(rows), n))
-        return a, np.array([b for _, b in rows])
-
-    def solve(self, time_limit: float | None = None, start: np.ndarray | None = None):
-        """One round: ``highs.Result`` (status, best x, objective, dual bound)."""
-        nd = len(self.sc.drones)
-        cost, n = self.cost, self.n
-        ub = list(self.ub)
-        integer = np.ones(n, dtype=bool)
-        if self.w > 0:  # makespan column m ≥ every drone's time, weight w
-            cost = np.concatenate([cost, [self.w]])
-            integer = np.concatenate([integer, [False]])
-            for d in range(nd):
-                row = {k: float(c) for k, c in enumerate(self.cost) if self.drone_of[k] == d}
-                row[n] = -1.0
-                ub.append((row, 0.0))
-            n += 1
-        a_eq, b_eq = self._matrix(self.eq, n)
-        a_ub, b_ub = self._matrix(ub, n) if ub else (None, None)
-        if start is not None and self.w > 0:
-            times = [float(self.cost[(self.drone_of == d)] @ start[:self.n][self.drone_of == d])
-                     for d in range(nd)]
-            start = np.concatenate([start[:self.n], [max(times)]])
-        return solve_binary(cost, integer, a_eq, b_eq, a_ub, b_ub, time_limit=time_limit,
-                            start=start, options=HIGHS_OPTIONS)
-
-    def vector(self, routes: dict[str, list[str]]) -> np.ndarray | None:
-        """The 0/1 vector of given routes (arcs and station-usage columns), or None when a
-        route uses an arc the model does not have."""
-        sc, nd = self.sc, len(self.sc.drones)
-        index = {(a.drone, a.tail, a.head): k for k, a in enumerate(self.arcs)}
-        node = {b.name: ("T", j) for j, b in enumerate(sc.targets)}
-        node |= {b.name: ("S", j) for j, b in enumerate(sc.stations)}
-        x = np.zeros(self.n)
-        for d, dr in enumerate(sc.drones):
-            prev: Node = ("D", d)
-            for name in routes.get(dr.name, []):
-                k = index.get((d, prev, node.get(name)))
-                if k is None:
-                    return None
-                x[k] = 1.0
-                prev = node[name]
-                if prev[0] == "S" and self.n > len(self.arcs):
-                    x[len(self.arcs) + d + prev[1] * nd] = 1.0
-        return x
-
-
-def _route(sc: TeamScenario, d: int, chosen: list[Arc]) -> list[str]:
-    """Ordered region names of drone ``d`` (an Euler trail over the runs, from the depot)."""
-    segs = segments(chosen)
-    first = next(s for s in segs if s[0] == ("D", d))
-    out_of: dict[Node, list[tuple[Node, list[int], Node]]] = {}
-    for s in segs:
-        if s[0][0] == "S":
-            out_of.setdefault(s[0], []).append(s)
-    order: list[tuple[Node, list[int], Node]] = []
-    stack: list[tuple[Node, tuple | None]] = [(first[2], None)]
-    while stack:
-        v, seg = stack[-1]
-        if out_of.get(v):
-            nxt = out_of[v].pop()
-            stack.append((nxt[2], nxt))
-        else:
-            stack.pop()
-            if seg is not None:
-                order.append(seg)
-    names: list[str] = []
-    for _, seq, end in [first] + order[::-1]:
-        names += [sc.targets[j].name for j in seq]
-        if end[0] == "S":
-            names.append(sc.stations[end[1]].name)
-    return names
-
-
-def _violated(model: _Model, arcs: list[Arc], xv: np.ndarray) -> list:
-    """Lazy rows the incumbent ``xv`` violates (sub-tour, capacity, shared station)."""
-    cuts = []
-    for d in range(len(model.sc.drones)):
-        cuts += cuts_for(model, d, [a for k, a in enumerate(arcs) if xv[k] and a.drone == d])
-    if model.station_rows and station_shared(arcs, xv):
-        cuts += model.station_rows
-        model.station_rows = []
-    return cuts
-
-
-def _lazy_solve(sc: TeamScenario, arcs: list[Arc], limit: float | None, w: float,
-                stats: AssignStats, max_rounds: int, deadline: float = math.inf,
-                start_routes=None, warm_at: float = math.inf
-                ) -> tuple[np.ndarray, float] | None:
-    """The lazy-cut loop.  ``start_routes`` is a callable giving the warm-start routes (or
-    None); it is called once the loop is still running at wall time ``warm_at`` (the round
-    then running is stopped there and solved again with the start)."""
-    model = _Model(sc, arcs, limit, w)
-    start = None
-    rounds = 0
-    while rounds < max_rounds:
-        now = time.perf_counter()
-        left = deadline - now
-        if left <= 0:
-            raise _Budget(None, -math.inf)
-        cold = start is None and start_routes is not None and now < warm_at
-        if start is None and start_routes is not None and not cold:
-            routes = start_routes()
-            start = model.vector(routes) if routes else None
-            start_routes = None
-        cap = min(left, warm_at - now) if cold else left
-        res: Result = model.solve(cap if math.isfinite(cap) else None, start)
-        if res.status == "time" and cold and cap < left:
-            continue  # the warm start is due: solve this round again with it
-        rounds += 1
-        stats.rounds += 1
-        if res.status == "time":  # the best solution so far, if it breaks no lazy row
-            ok = res.x is not None and not _violated(model, arcs, res.x)
-            raise _Budget(res.x if ok else None, res.bound)
-        if res.status != "optimal" or res.x is None:
-            return None
-        xv, obj = res.x, res.objective
-        cuts = _violated(model, arcs, xv)
-        if not cuts:
-            return xv, obj
-        stats.cuts += len(cuts)
-        model.ub += cuts
-    raise AssignmentError(f"the assignment did not converge in {max_rounds} lazy-cut rounds",
-                          reason="capacity")
-
-
-class _Budget(Exception):
-    """The MILP exceeded its time budget: its best full-feasible solution (or None) and the
-    dual bound of the round that was stopped (a lower bound of the optimum)."""
-
-    def __init__(self, x: np.ndarray | None, bound: float) -> None:
-        super().__init__("time budget")
-        self.x, self.bound = x, bound
+    formulation: str = ""  # "routes" | "arcs"
+    columns: int = 0  # route columns in the master (routes model)
 
 
 def _leg(sc: TeamScenario):
@@ -330,9 +83,10 @@ def _leg(sc: TeamScenario):
     return lambda p0, p1, d: leg_time(p0, p1, d.vel_max, d.acc_max, sc.step, router)
 
 
-def heuristic_routes(sc: TeamScenario, limit: float) -> dict[str, list[str]] | None:
-    """Greedy start + local search (``stlc.team.local``); None without stations or when the
-    result does not fit the horizon limit."""
+def heuristic_routes(sc: TeamScenario, limit: float, deadline: float = math.inf
+                     ) -> dict[str, list[str]] | None:
+    """Greedy start + local search (``stlc.team.local``, stopped at ``deadline``); None
+    without stations or when the result does not fit the horizon limit."""
     from stlc.team.greedy import greedy_routes
     from stlc.team.local import local_routes
 
@@ -340,7 +94,7 @@ def heuristic_routes(sc: TeamScenario, limit: float) -> dict[str, list[str]] | N
         return None
     try:
         routes = local_routes(sc, _leg(sc), dwell_times(sc), limit,
-                              greedy_routes(sc, _leg(sc), dwell_times(sc)))
+                              greedy_routes(sc, _leg(sc), dwell_times(sc)), deadline=deadline)
     except AssignmentError:
         return None
     ok = all(route_time(sc, d, routes[dr.name]) <= limit + 1e-9
@@ -350,19 +104,20 @@ def heuristic_routes(sc: TeamScenario, limit: float) -> dict[str, list[str]] | N
 
 def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
            max_rounds: int = 200, budget_s: float = BUDGET_S, warm_start: bool = True,
-           warm_after: float = WARM_AFTER_S) -> tuple[dict[str, list[str]], AssignStats]:
+           warm_after: float = WARM_AFTER_S, formulation: str = "auto"
+           ) -> tuple[dict[str, list[str]], AssignStats]:
     """Route of every drone (ordered target and station names, ending at its home station
     when there are stations) and the solve statistics.  Raises ``AssignmentError`` when no
-    assignment exists (capacity, reachability, horizon).
+    assignment exists (capacity, reachability, horizon) or none was found in the budget.
 
-    When the loop is still running after ``warm_after`` seconds the heuristic routes
-    (``heuristic_routes``) are computed and, with ``warm_start``, given to HiGHS as the
-    starting incumbent of every later round (the round then running is restarted with
-    it; missions that solve sooner get exactly the cold MILP's routes).  When
-    the loop exceeds ``budget_s`` seconds the result is the best feasible assignment known
-    — HiGHS's incumbent if it breaks no lazy row, else the heuristic's (else the bare greedy
-    rule) — with ``stats.method == "greedy"`` (not optimal), ``stats.incumbent`` saying
-    which, and ``stats.bound`` the dual bound (so the gap is known)."""
+    ``formulation``: "routes", "arcs" or "auto" (routes unless a makespan weight is asked
+    or the trips are more than ``MAX_TRIPS``).  Past ``budget_s`` the result is the best
+    feasible assignment known with ``stats.method == "greedy"`` (not optimal),
+    ``stats.incumbent`` saying where it came from and ``stats.bound`` a lower bound."""
+    from stlc.team import colgen
+    from stlc.team.horizon import route_bounds
+    from stlc.team.trips import count_estimate, enumerate_trips
+
     c0, w0 = time.process_time(), time.perf_counter()
     stats = AssignStats()
     sc = scenario
@@ -370,48 +125,99 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
     _precheck(sc, arcs)
     tail = dwell_times(sc)[1] if sc.stations else 0.0
     limit = sc.horizon - tail
+    _check_bounds(sc, route_bounds(sc, arcs, tail))
+    deadline = w0 + budget_s
+    ins = dwell_times(sc)[0]
+    use_routes = formulation == "routes" or (
+        formulation == "auto" and makespan_weight == 0
+        and count_estimate(sc, limit, ins) <= MAX_TRIPS and len(sc.targets) <= 62)
     heur: list = []  # computed at most once, when first needed
 
     def heuristic():
         if not heur:
-            heur.append(heuristic_routes(sc, limit))
+            # the local search gets what is left of the budget, at least HEURISTIC_S
+            heur.append(heuristic_routes(sc, limit, max(deadline, time.perf_counter()
+                                                        + HEURISTIC_S)))
         return heur[0]
 
+    if use_routes:
+        stats.formulation = "routes"
+        trips = enumerate_trips(sc, arcs, limit, ins)
+        uncovered = set(range(len(sc.targets))) - {j for m in trips.members for j in m}
+        if uncovered:
+            name = sc.targets[min(uncovered)].name
+            raise AssignmentError(
+                f"no assignment fits the horizon of {sc.horizon:g} s: no drone can reach "
+                f"target {name}, install it and get to a station in time", reason="horizon",
+                subject=name)
+        res = colgen.solve(sc, arcs, trips, limit, deadline)
+        stats.rounds, stats.columns = res.rounds, res.columns
+        if res.routes is not None:
+            stats.drone_time = dict(res.times)
+            stats.objective = res.objective
+            stats.bound = res.bound
+            if res.status != "optimal":
+                stats.method, stats.incumbent = "greedy", "milp"
+            return _done(res.routes, stats, c0, w0)
+        if time.perf_counter() < deadline and len(trips.cost) <= PROOF_TRIPS:
+            # can the model be proved infeasible?  (the trip model: its build is not
+            # under HiGHS's time limit, so only where it is small)
+            from stlc.team import partition
+
+            out = partition.solve(sc, arcs, limit, deadline - time.perf_counter(),
+                                  trips=trips)
+            if out.status == "infeasible":
+                raise _horizon_error(sc, route_bounds(sc, arcs, tail), proved=True)
+        return _fallback(sc, arcs, stats, limit, c0, w0, heuristic(), Budget(None, res.bound))
+    stats.formulation = "arcs"
     try:
-        res = _lazy_solve(sc, arcs, limit, makespan_weight, stats, max_rounds,
-                          w0 + budget_s, heuristic if warm_start else None, w0 + warm_after)
-    except _Budget as b:
+        res = lazy_solve(sc, arcs, limit, makespan_weight, stats, max_rounds, deadline,
+                         heuristic if warm_start else None, w0 + warm_after)
+    except Budget as b:
         return _fallback(sc, arcs, stats, limit, c0, w0, heuristic(), b)
     if res is None:
-        free = _lazy_solve(sc, arcs, None, makespan_weight, AssignStats(), max_rounds)
-        if free is None:
-            raise AssignmentError("no assignment of the targets to the drones exists "
-                                  "(capacities and refilling stations)", reason="capacity")
-        longest = max(sum(a.cost for k, a in enumerate(arcs) if free[0][k] and a.drone == d)
-                      for d in range(len(sc.drones)))
-        raise AssignmentError(
-            f"no assignment fits the horizon of {sc.horizon:g} s: the best plan without it "
-            f"has a route of {longest + tail:.2f} s (travel, {sc.install_time:g} s per "
-            f"install, {sc.refill_time:g} s per refill and at home)", reason="horizon")
+        raise _horizon_error(sc, route_bounds(sc, arcs, tail), proved=True)
     xv, obj = res
     routes = _routes(sc, arcs, xv, stats)
     stats.objective = stats.bound = obj
+    return _done(routes, stats, c0, w0)
+
+
+def _done(routes, stats: AssignStats, c0: float, w0: float):
     stats.cpu_s = time.process_time() - c0
     stats.wall_s = time.perf_counter() - w0
     return routes, stats
+
+
+def _horizon_error(sc: TeamScenario, bounds: tuple[float, float], *, proved: bool):
+    reach, work = bounds
+    lb = max(b for b in bounds if math.isfinite(b)) if any(map(math.isfinite, bounds)) else 0
+    why = (f"the longest route needs at least {lb:.1f} s (a lower bound from travel, "
+           f"{sc.install_time:g} s per install, {sc.refill_time:g} s per refill and at home)")
+    if proved:
+        why = "the assignment model with it is infeasible; " + why.replace("needs", "needs, "
+                                                                         "without it,")
+    return AssignmentError(f"no assignment fits the horizon of {sc.horizon:g} s: {why}",
+                           reason="horizon")
+
+
+def _check_bounds(sc: TeamScenario, bounds: tuple[float, float]) -> None:
+    """Raise the horizon error at once when a lower bound of the longest route exceeds it."""
+    if any(math.isfinite(b) and b > sc.horizon + 1e-9 for b in bounds):
+        raise _horizon_error(sc, bounds, proved=False)
 
 
 def _routes(sc: TeamScenario, arcs: list[Arc], xv: np.ndarray, stats: AssignStats):
     routes: dict[str, list[str]] = {}
     for d, dr in enumerate(sc.drones):
         chosen = [a for k, a in enumerate(arcs) if xv[k] and a.drone == d]
-        routes[dr.name] = _route(sc, d, chosen)
+        routes[dr.name] = route(sc, d, chosen)
         stats.drone_time[dr.name] = float(sum(a.cost for a in chosen))
     return routes
 
 
 def _fallback(sc: TeamScenario, arcs: list[Arc], stats: AssignStats, limit: float, c0: float,
-              w0: float, heur: dict[str, list[str]] | None, budget: _Budget):
+              w0: float, heur: dict[str, list[str]] | None, budget: Budget):
     from stlc.team.greedy import greedy_routes
 
     names = [d.name for d in sc.drones]
@@ -431,6 +237,4 @@ def _fallback(sc: TeamScenario, arcs: list[Arc], stats: AssignStats, limit: floa
     stats.method = "greedy"
     stats.objective = sum(stats.drone_time.values())
     stats.bound = budget.bound
-    stats.cpu_s = time.process_time() - c0
-    stats.wall_s = time.perf_counter() - w0
-    return routes, stats
+    return _done(routes, stats, c0, w0)

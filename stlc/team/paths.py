@@ -42,26 +42,8 @@ def _grow(box: Box, m: float) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(box.lo, dtype=float) - m, np.asarray(box.hi, dtype=float) + m
 
 
-def _hits(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
-    """Does the closed segment p0-p1 meet the open box (lo, hi)?  (slab test)"""
-    d = p1 - p0
-    t0, t1 = 0.0, 1.0
-    for j in range(3):
-        if abs(d[j]) < 1e-12:
-            if not (lo[j] < p0[j] < hi[j]):
-                return False
-            continue
-        a, b = (lo[j] - p0[j]) / d[j], (hi[j] - p0[j]) / d[j]
-        if a > b:
-            a, b = b, a
-        t0, t1 = max(t0, a), min(t1, b)
-        if t0 >= t1:
-            return False
-    return True
-
-
-def _hits_many(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """``_hits`` for segments ``p0[i]-p1[i]`` ((m, 3) each), vectorised."""
+def _hits_boxes(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Does the closed segment p0-p1 meet each open box ``(lo[k], hi[k])`` ((k, 3) each)?"""
     d = p1 - p0
     flat = np.abs(d) < 1e-12
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -73,6 +55,25 @@ def _hits_many(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -
     return inside_flat & (t0 < t1)
 
 
+def _free_from(p: np.ndarray, qs: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """For segments ``p-qs[i]``: clear of every box ``(lo[k], hi[k])`` that contains
+    neither end point?  (bool per segment; ``_hits_boxes`` for many segments at once)"""
+    if len(lo) == 0 or len(qs) == 0:
+        return np.ones(len(qs), dtype=bool)
+    d = qs[:, None, :] - p  # (n, 1, 3)
+    flat = np.abs(d) < 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.where(flat, -np.inf, (lo[None] - p) / d)  # (n, k, 3)
+        b = np.where(flat, np.inf, (hi[None] - p) / d)
+    t0 = np.maximum(np.max(np.minimum(a, b), axis=2), 0.0)
+    t1 = np.minimum(np.min(np.maximum(a, b), axis=2), 1.0)
+    inside_flat = np.all(~flat | ((lo[None] < p) & (p < hi[None])), axis=2)
+    hit = inside_flat & (t0 < t1)  # (n, k)
+    skip = np.all((p > lo) & (p < hi), axis=1)[None, :] | np.all(
+        (qs[:, None, :] > lo[None]) & (qs[:, None, :] < hi[None]), axis=2)
+    return ~np.any(hit & ~skip, axis=1)
+
+
 class Router:
     """Via-point paths around the obstacles of one scenario (see the module docstring)."""
 
@@ -80,6 +81,8 @@ class Router:
                  node_margin: float = NODE_MARGIN) -> None:
         self.sc = scenario
         self.boxes = [_grow(o, margin) for o in scenario.obstacles]
+        self.lo = np.array([b[0] for b in self.boxes]).reshape(-1, 3)
+        self.hi = np.array([b[1] for b in self.boxes]).reshape(-1, 3)
         ws_lo = np.asarray(scenario.workspace.lo, dtype=float) + node_margin
         ws_hi = np.asarray(scenario.workspace.hi, dtype=float) - node_margin
         nodes: list[np.ndarray] = []
@@ -99,28 +102,52 @@ class Router:
             for j in range(i + 1, n):
                 self.vis[i, j] = self.vis[j, i] = self.free(nodes[i], nodes[j])
         self._cache: dict = {}
+        self._edges: dict = {}  # (v̄, ā) -> {(i, j): chord time between via points}
+
+    def _inside(self, *pts) -> np.ndarray:
+        """Which inflated obstacles contain one of the points (bool per box)."""
+        out = np.zeros(len(self.boxes), dtype=bool)
+        for p in pts:
+            out |= np.all((np.asarray(p, dtype=float) > self.lo)
+                          & (np.asarray(p, dtype=float) < self.hi), axis=1)
+        return out
 
     def _exempt(self, *pts) -> set[int]:
-        return {i for i, (lo, hi) in enumerate(self.boxes)
-                for p in pts if np.all((p > lo) & (p < hi))}
+        return set(np.flatnonzero(self._inside(*pts)).tolist())
 
     def free(self, p0, p1, exempt: set[int] | None = None) -> bool:
         """Is the segment clear of every inflated obstacle not containing an end point
         (or, if ``exempt`` is given, of every obstacle not in it)?"""
+        if not self.boxes:
+            return True
         p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
-        skip = self._exempt(p0, p1) if exempt is None else exempt
-        return not any(i not in skip and _hits(p0, p1, lo, hi)
-                       for i, (lo, hi) in enumerate(self.boxes))
+        if exempt is None:
+            skip = self._inside(p0, p1)
+        else:
+            skip = np.zeros(len(self.boxes), dtype=bool)
+            skip[list(exempt)] = True
+        return not bool(np.any(_hits_boxes(p0, p1, self.lo, self.hi) & ~skip))
 
     def _direct_clear(self, p0, p1, vel_max, acc_max) -> bool:
         if not self.boxes:
             return True
-        skip = self._exempt(p0, p1)
+        skip = self._inside(p0, p1)
         prim = rest_to_rest(p0, p1, vel_max, acc_max)
         t = np.linspace(0.0, prim.duration, max(2, int(prim.duration / 0.1) + 2))
         pts = prim.sample(t)[0]
-        return not any(i not in skip and np.any(_hits_many(pts[:-1], pts[1:], lo, hi))
-                       for i, (lo, hi) in enumerate(self.boxes))
+        a0, a1 = pts[:-1, None, :], pts[1:, None, :]  # segments x boxes
+        lo, hi = self.lo[None][:, ~skip], self.hi[None][:, ~skip]
+        if lo.shape[1] == 0:
+            return True
+        d = a1 - a0
+        flat = np.abs(d) < 1e-12
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ta = np.where(flat, -np.inf, (lo - a0) / d)
+            tb = np.where(flat, np.inf, (hi - a0) / d)
+        t0 = np.maximum(np.max(np.minimum(ta, tb), axis=2), 0.0)
+        t1 = np.minimum(np.min(np.maximum(ta, tb), axis=2), 1.0)
+        inside_flat = np.all(~flat | ((lo < a0) & (a0 < hi)), axis=2)
+        return not bool(np.any(inside_flat & (t0 < t1)))
 
     def path(self, p0, p1, vel_max, acc_max) -> list[np.ndarray]:
         """``[p0, p1]`` when the direct primitive is clear, else the via-point path."""
@@ -137,10 +164,18 @@ class Router:
         pts = [*self.nodes, p0, p1]
         s, g = n, n + 1
 
+        table = self._edges.setdefault((tuple(vel_max), tuple(acc_max)), {})
+
         def cost(i: int, j: int) -> float:
+            if i < n and j < n:  # node-node chord times are shared by every path
+                if (i, j) not in table:
+                    table[i, j] = min_duration(pts[i], pts[j], vel_max, acc_max, straight=True)
+                return table[i, j]
             return min_duration(pts[i], pts[j], vel_max, acc_max, straight=True)
 
-        adj_end = [self.free(p1, q) for q in self.nodes]
+        nodes = np.array(self.nodes).reshape(-1, 3)
+        adj_end = _free_from(p1, nodes, self.lo, self.hi)
+        adj_start = _free_from(p0, nodes, self.lo, self.hi)
         dist = {s: 0.0}
         prev: dict[int, int] = {}
         heap = [(0.0, s)]
@@ -153,11 +188,11 @@ class Router:
             if u == g:
                 break
             if u == s:
-                nbrs = [(j, self.free(p0, self.nodes[j])) for j in range(n)]
+                nbrs = [(j, bool(adj_start[j])) for j in range(n)]
                 nbrs.append((g, self.free(p0, p1)))
             else:
                 nbrs = [(j, bool(self.vis[u, j])) for j in range(n) if j != u]
-                nbrs.append((g, adj_end[u]))
+                nbrs.append((g, bool(adj_end[u])))
             for v, ok in nbrs:
                 if not ok or v in done:
                     continue
