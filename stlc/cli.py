@@ -360,7 +360,7 @@ def cmd_compile(args) -> int:
 
 
 def cmd_simulate(args) -> int:
-    from stlc.pipeline import simulate_file
+    from stlc.simulation import simulate_file
     from stlc.semantics.model import Failure
 
     fails = [Failure(args.fail[0], args.fail[1], args.backup)] if args.fail else None

@@ -361,7 +361,7 @@ def test_exists_over_an_empty_group_is_a_located_error():
         mission("  require not exists q in stations: uav1.pos in q")
     (d,) = e.value.diagnostics
     assert d.code == "STL212" and "no element" in d.message
-    assert (d.span.line, d.span.col) == (19, 27)  # at `stations`
+    assert (d.span.line, d.span.col) == (20, 27)  # at `stations`
     one = mission("  vehicles = [uav1]\n  require forall a, b in team: dist(a.pos, b.pos) >= 1 m"
                   "\n  minimize -robustness")
     assert one.requirement == ir.TrueF()

@@ -17,6 +17,7 @@ The units, lowest first (``LAYERS``)::
     replan     online replanning (flight loop, events, result)
     output     writers: solution.json, CSVs, the HTML report, the output directory
     pipeline   orders the passes
+    simulation ``stlc simulate``: the compile, then the flight loops of ``replan``
     api        the Python API (``stlc.load``, ``stlc.compile``, ...; the package's
                ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     tools      language tools: fmt, lsp, explain
@@ -47,6 +48,7 @@ LAYERS: list[set[str]] = [
     {"replan"},
     {"output"},
     {"pipeline"},
+    {"simulation"},
     {"api"},
     {"tools"},
     {"sweep"},
