@@ -8,7 +8,7 @@ allocation").
 * The memory budget (``max_memory()``): by default a safe share of the machine's memory
   (``DEFAULT_SHARE`` of ``MemTotal``, at most ``DEFAULT_CAP``); ``--max-memory`` moves it
   (``set_max_memory``).  The planners estimate a problem's memory from the checked program
-  before building it (``stlc.planning.budget``) and refuse with STL607 what does not fit.
+  before building it (``stlc.planning.budget``) and refuse with STL606 what does not fit.
 * ``MAX_EXPANSION`` bounds quantifier expansion (STL606): instances × the source nodes
   of the body (the checker elaborates ~0.1–0.3 ms per node: about 10 s at the limit).
 """

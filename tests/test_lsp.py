@@ -148,7 +148,12 @@ def test_a_scripted_editor_session(tmp_path):
         assert "STL002" in codes and "STL101" in codes, codes
         c.notify("textDocument/didChange", {"textDocument": {"uri": uri, "version": 3},
                                             "contentChanges": [{"text": fixed}]})
-        assert c.diagnostics(uri, 3) == []
+        # no error left; the lint warning of `stlc check` (STLWxx) with LSP severity 2:
+        # the human's region `behind` is declared but no formula uses it
+        diags = c.diagnostics(uri, 3)
+        assert [(d["code"], d["severity"]) for d in diags] == [("STLW04", 2)], diags
+        assert diags[0]["range"]["start"]["line"] == _at(fixed, "region behind")["line"]
+        assert "operator.behind" in diags[0]["message"]
 
         # hover on a region: its box (the human's frame); on a spec: its formula
         h = c.request("textDocument/hover", {"textDocument": {"uri": uri},
@@ -188,7 +193,7 @@ def test_a_scripted_editor_session(tmp_path):
                                                                          "      step=0.1 s")
         c.notify("textDocument/didChange", {"textDocument": {"uri": uri, "version": 5},
                                             "contentChanges": [{"text": messy}]})
-        assert c.diagnostics(uri, 5) == []
+        assert [d["code"] for d in c.diagnostics(uri, 5)] == ["STLW04"]
         edits = c.request("textDocument/formatting", {"textDocument": {"uri": uri},
                                                       "options": {"tabSize": 2,
                                                                   "insertSpaces": True}})
@@ -232,6 +237,12 @@ def test_vehicle_field_hover_names_the_unit():
     line = text[:text.index("spec safe")].count("\n") + 1
     col = text.split("\n")[line - 1].index("uav1.pos") + 6
     assert "m" in ide.hover(an, line, col) and "point_mass" in ide.hover(an, line, col)
+    # `radius` (issue 22) is a constant length, not a signal
+    text = text.replace("require safe and reach", "require safe and reach and uav1.radius >= 0 m")
+    an = ide.analyze(text, "m.stl")
+    line = text[:text.index("uav1.radius")].count("\n") + 1
+    col = text.split("\n")[line - 1].index("uav1.radius") + 6
+    assert ide.hover(an, line, col).startswith("`uav1.radius`: a length (m), a constant")
 
 
 @pytest.mark.parametrize("path", sorted((ROOT / "specs").glob("*.stl")), ids=lambda p: p.name)

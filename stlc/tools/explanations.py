@@ -152,6 +152,15 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
         "A box is empty: a lower corner above the upper one, or a negative size.",
         "scenario {\n  obstacle o = box((1, 0, 0), (0, 1, 1)) m\n}\n",
         "scenario {\n  obstacle o = box((0, 0, 0), (1, 1, 1)) m\n}\n"),
+    "STL212": (
+        "An `exists` ranges over a group with fewer elements than the names it binds "
+        "(`exists s in stations` in a file without a `station`, `exists d, e in team` in a "
+        "one-drone team), so the formula could never hold.  (A `forall` over too few "
+        "elements is vacuously true and is not an error.)  Declare what it ranges over, or "
+        "remove the quantifier.",
+        _m("  require exists s in stations: eventually[0, 5] (uav1.pos in s)\n"),
+        _m("  require exists s in stations: eventually[0, 5] (uav1.pos in s)\n",
+           _PM + "scenario {\n  station s1 = box((0, 0, 0), (1, 1, 1)) m\n}\n")),
     "STL301": (
         "A time bound of an interval is negative.  Intervals are relative to now and start "
         "at 0 or later.",
@@ -243,6 +252,59 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
         "path through a file, no permission, or an output name that exists as a folder.  "
         "Checked before any solve.",
         "stlc compile mission.stl -o notes.txt   # a file", "stlc compile mission.stl -o out/"),
+    "STL606": (
+        "The problem is too large for the resource budget, and stlc refuses it before "
+        "allocating: the estimated memory of a mission's trajectory NLP (samples × "
+        "vehicles' states and inputs × predicates) is over the budget (by default half the "
+        "machine's memory, at most 16G; `--max-memory` moves it), or a quantifier would "
+        "expand to more than 50 000 source nodes (instances × the body's size).  The help "
+        "says what fits: a coarser step, a shorter horizon, fewer vehicles or specs, fewer "
+        "nested quantifiers.",
+        "stlc compile mission.stl --max-memory 64M   # horizon = 600 s, step = 0.01 s",
+        "stlc compile mission.stl --max-memory 64M   # step = 0.5 s (or a larger --max-memory)"),
+    "STL607": (
+        "`stlc sweep --scheduler ADDRESS` cannot connect to the Dask scheduler at that "
+        "address within 10 s (nothing listening, a wrong host or port, a firewall).  Start "
+        "a scheduler and its workers first, or drop `--scheduler` to run on a local "
+        "cluster.",
+        "stlc sweep mission.stl --scheduler tcp://10.0.0.5:8786   # no scheduler running",
+        "dask scheduler &   # then `dask worker tcp://10.0.0.5:8786` on each machine\n"
+        "stlc sweep mission.stl --scheduler tcp://10.0.0.5:8786"),
+    "STLW01": (
+        "Warning.  `always[a,b] p and q` is `(always[a,b] p) and q` by the precedence "
+        "contract: the temporal operator binds tighter, so `q` is checked at the start "
+        "(t = 0) alone.  Reported when the right operand has no temporal operator (a state "
+        "condition most likely meant inside).  Parenthesise either way to silence it.  "
+        "Warnings do not change the exit code; `--deny-warnings` makes them errors.",
+        "signal x, y\nspec a = always[0, 5] x > 0 and y > 0\n",
+        "signal x, y\nspec a = always[0, 5] (x > 0 and y > 0)\n"),
+    "STLW02": (
+        "Warning.  `a implies b` is true wherever `a` is false; on this plan (or trace) the "
+        "antecedent never holds where the implication is evaluated, so it holds only "
+        "vacuously and says nothing about the plan — typically a plan on the face of a "
+        "region, where `pos in gate` has robustness 0 (not > 0).  The warning names the "
+        "time the antecedent comes closest.  To make the plan enter the antecedent, "
+        "require it too.",
+        "require always[0, 20] ((uav1.pos in gate) implies eventually[0, 5] (uav1.pos in "
+        "guard))",
+        "require eventually[0, 10] (uav1.pos in gate)\n  and always[0, 20] ((uav1.pos in "
+        "gate) implies eventually[0, 5] (uav1.pos in guard))"),
+    "STLW03": (
+        "Warning.  A target, station, home or plain region does not meet the `workspace` "
+        "box, so no plan that stays in the workspace can reach it.  Check its corners (and "
+        "units) against the workspace.",
+        _PM + "scenario {\n  workspace = box((-5, -5, 0), (5, 5, 3)) m\n  target t1 = "
+        "box((6, 0, 1), (7, 1, 2)) m\n}\n",
+        _PM + "scenario {\n  workspace = box((-5, -5, 0), (5, 5, 3)) m\n  target t1 = "
+        "box((4, 0, 1), (5, 1, 2)) m\n}\n"),
+    "STLW04": (
+        "Warning.  Declared and never used: a mission's named spec that neither its "
+        "`require`, another spec nor its `replan { keep }` reads (the plan does not have to "
+        "satisfy it), or an obstacle or plain region no formula mentions (an obstacle no "
+        "formula mentions is not avoided).  Use it, or remove it.",
+        _m("  spec low = always[0, 5] uav1.pos.z < 3 m\n" + _REQ.replace("0\n", "0 m\n")),
+        _m("  spec low = always[0, 5] uav1.pos.z < 3 m\n"
+           "  require always[0, 5] uav1.pos.z > 0 m and low\n")),
 }
 
 #: codes whose examples are `.stl` files the checker judges (tested by the suite)

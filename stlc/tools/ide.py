@@ -26,7 +26,7 @@ HUMAN_FIELDS = {"pos": "position of the human, m (x, y, z)",
                 "heading": "heading (yaw) of the human, rad"}
 #: the fields every vehicle has, offered when the file does not check (else the model's
 #: own fields are asked from the checker and the vehicle registry)
-COMMON_FIELDS = ("pos", "vel", "speed", "horizontal_speed", "course")
+COMMON_FIELDS = ("pos", "vel", "speed", "horizontal_speed", "course", "radius")
 MAX_RECOVERY = 5  # syntax errors skipped per analysis
 
 
@@ -61,7 +61,8 @@ class Analysis:
 
 
 def analyze(text: str, path: str) -> Analysis:
-    """Parse (recovering from syntax errors) and check ``text``."""
+    """Parse (recovering from syntax errors) and check ``text``; a file that checks gets
+    the lint warnings of ``stlc check`` (severity "warning")."""
     from stlc.frontend.syntax import parse
     from stlc.semantics.check import check
 
@@ -93,6 +94,10 @@ def analyze(text: str, path: str) -> Analysis:
                      if not (d.code == "STL101" and any(f"`{n}`" in d.message for n in lost)))
     except RecursionError:
         pass
+    if an.program is not None and not diags:  # the warnings of `stlc check` (STLWxx)
+        from stlc.semantics.lint import lint
+
+        diags.extend(lint(tree, an.program))
     return an
 
 
@@ -233,8 +238,12 @@ def vehicle_fields(an: Analysis, vehicle: str) -> dict[str, str]:
         for k, v in fields(prog.vehicles[vehicle]).items():
             dim = getattr(v, "dim", None)
             unit = example_unit(dim) if dim is not None else "count"
-            comps = ", ".join(lb.rsplit(".", 1)[1] for lb in v.labels) if v.vector else ""
+            # a signal (`Sym`) has labels per component; a constant (`Num`: `radius`) none
+            vector = getattr(v, "vector", False)
+            comps = ", ".join(lb.rsplit(".", 1)[1] for lb in v.labels) if vector else ""
             desc = describe(dim) if dim is not None else "a number"
+            if not hasattr(v, "labels"):
+                desc += ", a constant"
             desc += "" if f"({unit})" in desc or f"{unit})" in desc else f", {unit}"
             out[k] = desc + (f"; components {comps}" if comps else "")
         return out
