@@ -166,7 +166,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     sol.timing["verify_s"] = time.perf_counter() - t0
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
-    if sol.status != "satisfied" and not deadline.expired():
+    if sol.status != "satisfied" and not deadline.solve_expired():
         from stlc.backends.milp_conflict import explain_infeasible
 
         explain_infeasible(problem, sol, quiet=quiet)
@@ -181,7 +181,7 @@ def _falls_back(chain, sol) -> bool:
     general chain: a point-mass mission too large for the MILP's budget is still planned
     (locally) as before the exact backend existed.  Not once the run's time limit is out."""
     return (chain.name == "milp" and not chain.forced and sol.status != "satisfied"
-            and not sol.solver.get("converged", False) and not deadline.expired())
+            and not sol.solver.get("converged", False) and not deadline.solve_expired())
 
 
 def _fallback(problem, first, quiet: bool):
