@@ -36,7 +36,8 @@ from collections import defaultdict
 from test_import_graph import graph
 
 LAYERS: list[set[str]] = [
-    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas", "deadline"},
+    {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas", "deadline",
+     "lazy"},
     {"limits"},
     {"frontend"},
     {"vehicles"},

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 from typing import Protocol
 
-import casadi as ca
+from stlc.lazy import lazy
+
+ca = lazy("casadi")  # CasADi runs only when a plan is built (``stlc.lazy``)
 import numpy as np
 
 from stlc.vehicles import declared as model

@@ -34,7 +34,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import casadi as ca
+from stlc.lazy import lazy
+
+ca = lazy("casadi")  # CasADi runs only when a plan is built (``stlc.lazy``)
 import numpy as np
 
 from stlc.vehicles.geometry import allocation, wrench_matrix

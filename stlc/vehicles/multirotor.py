@@ -7,7 +7,9 @@ speed), energy (paper A eq. 5) and the guess built from a kinematic path.
 
 from __future__ import annotations
 
-import casadi as ca
+from stlc.lazy import lazy
+
+ca = lazy("casadi")  # CasADi runs only when a plan is built (``stlc.lazy``)
 import numpy as np
 
 from stlc.vehicles import geometry

@@ -4,7 +4,9 @@ acceleration bounds; a team drone may carry a payload (a derived signal, see
 
 from __future__ import annotations
 
-import casadi as ca
+from stlc.lazy import lazy
+
+ca = lazy("casadi")  # CasADi runs only when a plan is built (``stlc.lazy``)
 import numpy as np
 
 from stlc.vehicles import dynamics
