@@ -273,6 +273,8 @@ def main(argv: list[str] | None = None) -> int:
               "  = help: this is a bug in stlc; rerun with STLC_DEBUG=1 for details",
               file=sys.stderr)
         return EXIT_INTERNAL
+    finally:  # an in-process call (tests, the API) must not leave its budget behind
+        limits.set_max_memory(None)
 
 
 def _sources(diags) -> dict[str, str]:

@@ -43,8 +43,10 @@ def test_the_readme_example_runs(tmp_path):
     assert len(out) == len(expected)
     for got, want in zip(out, expected):
         assert got == want
+    # the files of `stlc compile -o out`, with the directory's ownership record
+    # (`.stlc-outputs.json`: a later write replaces only what stlc wrote there)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
-        "report.html", "solution.json", "trajectory.csv"]
+        ".stlc-outputs.json", "report.html", "solution.json", "trajectory.csv"]
 
 
 def test_import_is_cheap():
@@ -101,7 +103,9 @@ RISKY = CLIMB.read_text(encoding="utf-8").replace(
     "  risk {\n    K = 200; delta = 0.05; beta = [0.8, 0.9]; seed = 3\n"
     "    case small { op.pos ~ normal((1, 0, 0) m, diag(0.01, 0.01, 0) m^2) }\n  }\n"
     "  replan { threshold = 0.3 m; budget = 0.4 s; keep = [stay] }\n"
-    "  simulate { disturb uav1 { time = 1 s; displacement = (0, 0.3, 0) m } }\n")
+    # a push clearly past ζ = 0.3 m: a 0.3 m push is a deviation of 0.3 ± 1 ulp, which
+    # triggers (> ζ) or not depending on the plan's last bits
+    "  simulate { disturb uav1 { time = 1 s; displacement = (0, 0.4, 0) m } }\n")
 
 
 def validate(name: str, data) -> None:
@@ -145,6 +149,8 @@ def test_replan_json_matches_its_schema(outputs):
     validate("replan", rep)
     validate("solution", json.loads((outputs / "sim/solution.json").read_text()))
     assert any(e["triggered"] for e in rep["events"])
+    with pytest.raises(jsonschema.ValidationError):  # the event kinds are named
+        validate("replan", {**rep, "events": [{**rep["events"][0], "kind": "nope"}]})
 
 
 def test_check_and_monitor_json_match_their_schemas(outputs):

@@ -161,12 +161,17 @@ def test_a_17000_sample_multirotor_is_refused_before_building(tmp_path, capsys):
 
 
 def test_max_memory_moves_the_limit(tmp_path, capsys):
+    from stlc import limits
+
     f = ROOT / "tests" / "missions" / "hexa_climb.stl"
-    assert main(["compile", str(f), "-o", str(tmp_path / "o"), "-q",
-                 "--max-memory", "100M"]) == 1
-    assert "STL606" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        main(["compile", str(f), "--max-memory", "lots"])
+    try:
+        assert main(["compile", str(f), "-o", str(tmp_path / "o"), "-q",
+                     "--max-memory", "100M"]) == 1
+        assert "STL606" in capsys.readouterr().err
+        with pytest.raises(SystemExit):
+            main(["compile", str(f), "--max-memory", "lots"])
+    finally:  # `main` sets the process's budget: 100 MB must not outlive this test
+        limits.set_max_memory(None)
 
 
 def test_risk_on_a_long_trace_stays_in_bounded_memory(tmp_path):

@@ -199,6 +199,26 @@ CHUNK = 512
 CHUNK_BYTES = 64 << 20
 
 
+def _plan_chunk(plan, chunk: int = CHUNK) -> int:
+    """Realisations per chunk for a ``monitor_demand.Plan``: the (chunk, samples) values of
+    every timed node of one chunk stay within CHUNK_BYTES whatever the trace's length
+    (512 realisations × 100,000 rows were 400 MB per node, 5.3 GB in all)."""
+    span = sum((e - s + 1) for need, timed in zip(plan.need, plan.timed)
+               if timed and need is not None for s, e in (need,))
+    return max(1, min(chunk, CHUNK_BYTES // (8 * max(span, 1))))
+
+
+def realisation_chunk(formulas: Mapping[str, Formula], dt: float, n: int,
+                      chunk: int = CHUNK) -> int:
+    """The number of realisations ``shared_robustness`` evaluates together for
+    ``formulas`` on ``n`` samples (≤ ``chunk``, smaller on long traces to bound the memory);
+    ``risk_parallel`` cuts its batches at multiples of it."""
+    from stlc.analysis.monitor_demand import Plan
+    from stlc.semantics import nnf
+
+    return _plan_chunk(Plan([nnf.normalize(f) for f in formulas.values()], dt, n), chunk)
+
+
 def shared_robustness(formulas: Mapping[str, Formula], dt: float,
                       channels: Mapping[str, np.ndarray], params: Mapping[str, object],
                       K: int, lam: float = 10.0, method: str = "gkl", *,
@@ -217,12 +237,7 @@ def shared_robustness(formulas: Mapping[str, Formula], dt: float,
     keys = list(formulas)
     n = len(next(iter(channels.values())))
     plan = Plan([nnf.normalize(formulas[k]) for k in keys], dt, n)
-    # the (chunk, samples) values of every timed node of one chunk stay within CHUNK_BYTES
-    # whatever the trace's length (512 realisations × 100,000 rows were 400 MB per node,
-    # 5.3 GB in all)
-    span = sum((e - s + 1) for need, timed in zip(plan.need, plan.timed)
-               if timed and need is not None for s, e in (need,))
-    chunk = max(1, min(chunk, CHUNK_BYTES // (8 * max(span, 1))))
+    chunk = _plan_chunk(plan, chunk)
     exact = {k: np.empty(K) for k in keys}
     smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
     for lo in range(0, K, chunk):

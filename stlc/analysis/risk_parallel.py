@@ -7,6 +7,12 @@ batches of ``BATCH`` — a multiple of its own chunk, so every chunk holds the s
 realisations as in the single-process run and the results are bitwise identical — on the
 workers, and the batches are put back in order.  The plan's channels and the formulas are
 scattered to the workers once per case.
+
+On a long trace ``shared_robustness`` takes fewer than ``CHUNK`` realisations at a time (its
+chunk is bounded by the samples the formulas read, ``risk.realisation_chunk``, so that the
+memory stays bounded whatever the trace's length); a batch is then cut at the largest
+multiple of that chunk ≤ ``BATCH``, so the chunks still hold the single-process run's
+realisations and each worker's memory is bounded as the single process's.
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from stlc.analysis.risk import CHUNK, shared_robustness
+from stlc.analysis.risk import CHUNK, realisation_chunk, shared_robustness
 
 BATCH = 2 * CHUNK  # ~1,000 realisations per task
 
@@ -34,20 +40,23 @@ def distributed(client, batch: int = BATCH):
 
     def shared(formulas: Mapping, dt: float, channels: Mapping, params: Mapping, K: int,
                lam: float = 10.0, method: str = "gkl", *, with_smooth: bool = True):
-        if K <= batch:
+        n = len(next(iter(channels.values())))
+        chunk = realisation_chunk(formulas, dt, n)
+        step = batch // chunk * chunk  # batches cut at chunk boundaries (chunk ≤ CHUNK)
+        if K <= step:
             return shared_robustness(formulas, dt, channels, params, K, lam, method,
                                      with_smooth=with_smooth)
         f_, ch_ = client.scatter([dict(formulas), dict(channels)], broadcast=True)
-        futs = [client.submit(_batch, f_, dt, ch_, {k: (v[lo:min(K, lo + batch)]
+        futs = [client.submit(_batch, f_, dt, ch_, {k: (v[lo:min(K, lo + step)]
                                                         if isinstance(v, np.ndarray) else v)
                                                     for k, v in params.items()},
-                              0, min(K, lo + batch) - lo, lam, method, with_smooth,
+                              0, min(K, lo + step) - lo, lam, method, with_smooth,
                               pure=False)
-                for lo in range(0, K, batch)]
+                for lo in range(0, K, step)]
         keys = list(formulas)
         exact = {k: np.empty(K) for k in keys}
         smooth = {k: np.empty(K) for k in keys} if with_smooth else {}
-        for lo_b, fut in zip(range(0, K, batch), futs):
+        for lo_b, fut in zip(range(0, K, step), futs):
             _, (ex, sm) = fut.result()
             for k in keys:
                 exact[k][lo_b:lo_b + len(ex[k])] = ex[k]
