@@ -194,4 +194,6 @@ def test_risk_on_a_long_trace_stays_in_bounded_memory(tmp_path):
                        text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     peak_kb = int(r.stderr.split("MAXRSS")[1].split()[0])
-    assert peak_kb < 300 << 10, peak_kb  # 150 MB measured; 450 MB before (50 × 1e5 chunks)
+    # 150 MB measured alone; once 736 MB inside a whole-suite run (not understood yet);
+    # 5.3 GB before the chunks were bounded by the trace length (issue 23: below 1 GB)
+    assert peak_kb < 1 << 20, peak_kb
