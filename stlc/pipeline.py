@@ -139,11 +139,9 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     are the instance's ``--set`` values (recorded on the problem); ``chain`` replaces the
     chosen backend chain (a sweep's warm start from its plan library)."""
     from stlc.analysis.vacuity import plan_warnings
-    from stlc.backends.base import run_chain
-    from stlc.backends.select import Chain, chain_record, select
-    from stlc.planning.fallback import fallback, time_limited
+    from stlc.backends.select import Chain, select
+    from stlc.planning.fallback import time_limited
     from stlc.planning.problem import from_mission
-    from stlc.planning.verify import verify
 
     problem = from_mission(program, mission, step=step, horizon=horizon, values=values)
     chain = select(problem, backend, quiet) if chain is None else \
@@ -153,6 +151,26 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
         print(f"{mission.name}: chain `{chain.name}`"
               f"{' (forced)' if chain.forced else ''}: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
+    sol = _run_verified(problem, chain)
+    if _falls_back(chain, sol):
+        sol = _fallback(problem, sol, quiet)
+    if sol.status != "satisfied" and not deadline.solve_expired():
+        from stlc.backends.milp_conflict import explain_infeasible
+
+        explain_infeasible(problem, sol, quiet=quiet)
+    time_limited(sol)
+    sol.diagnostics.extend(plan_warnings(problem, sol))
+    return problem, sol
+
+
+def _run_verified(problem, chain):
+    """Run ``chain`` on ``problem`` and judge its plan with the exact monitor; a watchdog cut
+    (the run's time limit) gives the hover plan, judged the same way."""
+    from stlc.backends.base import run_chain
+    from stlc.backends.select import chain_record
+    from stlc.planning.fallback import fallback
+    from stlc.planning.verify import verify
+
     try:
         sol, sols = run_chain(problem, chain.backends)
     except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
@@ -164,15 +182,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
-    if _falls_back(chain, sol):
-        sol = _fallback(problem, sol, quiet)
-    if sol.status != "satisfied" and not deadline.solve_expired():
-        from stlc.backends.milp_conflict import explain_infeasible
-
-        explain_infeasible(problem, sol, quiet=quiet)
-    time_limited(sol)
-    sol.diagnostics.extend(plan_warnings(problem, sol))
-    return problem, sol
+    return sol
 
 
 def _falls_back(chain, sol) -> bool:
@@ -188,24 +198,15 @@ def _fallback(problem, first, quiet: bool):
     """Plan ``problem`` with the ``nlp`` chain after an unconverged exact chain; keep the
     verified plan with the larger exact robustness (ties: the exact chain's).  Both plans
     are judged by the exact monitor; the record says what ran."""
-    from stlc.backends.base import run_chain
-    from stlc.backends.select import chain_record, select
-    from stlc.planning.verify import verify
+    from stlc.backends.select import select
 
     chain = select(problem, "nlp", quiet)
     if not quiet:
         print(f"{problem.mission.name}: the exact MILP stopped without a satisfying plan "
               f"({first.solver.get('return_status')}); falling back to chain `nlp`: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
-    try:
-        sol, sols = run_chain(problem, chain.backends)
-    except deadline.TimeLimitReached:
-        deadline.caught()
-        return first
-    sol.solver["chain"] = {**chain_record(chain, sols), "fallback_from": first.solver["chain"]}
-    t0 = time.perf_counter()
-    verify(problem, sol)
-    sol.timing["verify_s"] = time.perf_counter() - t0
+    sol = _run_verified(problem, chain)
+    sol.solver["chain"]["fallback_from"] = first.solver["chain"]
     a, b = first.robustness_exact, sol.robustness_exact
     if b == b and not (a == a and a >= b):  # NaN-safe: the NLP's plan is strictly better
         sol.notes.append(f"the exact MILP stopped without a satisfying plan "
