@@ -16,32 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
-
-SOURCE = """\
-const T = 3 s
-vehicle p : point_mass {
-  vel_max = (1, 1, 1) m/s
-  acc_max = (2, 2, 2) m/s^2
-  start { pos = (0, 0, 0) m }
-}
-scenario {
-  workspace = box((-3, -3, -1), (3, 3, 1)) m
-  human op {
-    pos = (1.5, 0, 0) m
-    att = (0, 0, 0) deg
-    region r = box((-0.4, 0.2, -0.2), (0.0, 0.6, 0.2)) m
-  }
-}
-mission m {
-  vehicles = [p]
-  horizon = 4 s
-  step = 0.2 s
-  spec reach = eventually[1, T] always[0, 0.4] (p.pos in op.r)
-  spec stay = always (p.pos in workspace)
-  require reach and stay
-  minimize -robustness
-}
-"""
+from test_set import SOURCE  # one mission for --set and the sweep over it
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1"}
 

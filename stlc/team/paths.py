@@ -43,15 +43,17 @@ def _grow(box: Box, m: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _hits_boxes(p0: np.ndarray, p1: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Does the closed segment p0-p1 meet each open box ``(lo[k], hi[k])`` ((k, 3) each)?"""
+    """Does the closed segment p0-p1 meet each open box ``(lo[k], hi[k])`` ((k, 3) each)?
+    Points and boxes broadcast over the leading axes (the last holds x, y, z): segments
+    ``(s, 1, 3)`` against boxes ``(1, k, 3)`` give an ``(s, k)`` answer."""
     d = p1 - p0
     flat = np.abs(d) < 1e-12
     with np.errstate(divide="ignore", invalid="ignore"):
         a = np.where(flat, -np.inf, (lo - p0) / d)
         b = np.where(flat, np.inf, (hi - p0) / d)
-    t0 = np.maximum(np.max(np.minimum(a, b), axis=1), 0.0)
-    t1 = np.minimum(np.min(np.maximum(a, b), axis=1), 1.0)
-    inside_flat = np.all(~flat | ((lo < p0) & (p0 < hi)), axis=1)
+    t0 = np.maximum(np.max(np.minimum(a, b), axis=-1), 0.0)
+    t1 = np.minimum(np.min(np.maximum(a, b), axis=-1), 1.0)
+    inside_flat = np.all(~flat | ((lo < p0) & (p0 < hi)), axis=-1)
     return inside_flat & (t0 < t1)
 
 
@@ -139,15 +141,7 @@ class Router:
         lo, hi = self.lo[None][:, ~skip], self.hi[None][:, ~skip]
         if lo.shape[1] == 0:
             return True
-        d = a1 - a0
-        flat = np.abs(d) < 1e-12
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ta = np.where(flat, -np.inf, (lo - a0) / d)
-            tb = np.where(flat, np.inf, (hi - a0) / d)
-        t0 = np.maximum(np.max(np.minimum(ta, tb), axis=2), 0.0)
-        t1 = np.minimum(np.min(np.maximum(ta, tb), axis=2), 1.0)
-        inside_flat = np.all(~flat | ((lo < a0) & (a0 < hi)), axis=2)
-        return not bool(np.any(inside_flat & (t0 < t1)))
+        return not bool(np.any(_hits_boxes(a0, a1, lo, hi)))
 
     def path(self, p0, p1, vel_max, acc_max) -> list[np.ndarray]:
         """``[p0, p1]`` when the direct primitive is clear, else the via-point path."""
