@@ -96,14 +96,10 @@ def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: 
     from the watchdog thread while the planning thread is stuck in a C call; returns the
     exit code."""
     def write() -> int:
-        from stlc.planning.fallback import fallback, time_limited
+        from stlc.planning.fallback import judged_fallback
         from stlc.planning.problem import from_mission
-        from stlc.planning.verify import verify
 
-        problem = from_mission(program, m)
-        sol = fallback(problem)
-        verify(problem, sol)
-        time_limited(sol)
+        sol = judged_fallback(from_mission(program, m))
         write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             summary(sol, outdir)

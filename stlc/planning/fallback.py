@@ -49,6 +49,17 @@ def fallback(problem: PlanningProblem) -> Solution:
                           "the problem was being built")
 
 
+def judged_fallback(problem: PlanningProblem) -> Solution:
+    """``fallback``, judged by the exact monitor and marked as stopped by the time limit:
+    what is written when the watchdog cut the run outside a backend's own budget."""
+    from stlc.planning.verify import verify
+
+    sol = fallback(problem)
+    verify(problem, sol)
+    time_limited(sol)
+    return sol
+
+
 def time_limited(sol: Solution) -> None:
     """The run's time limit (``stlc.deadline``) stopped the search: the plan is the best
     verified one found so far, not converged; one that does not satisfy is ``stopped``."""
