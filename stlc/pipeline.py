@@ -154,7 +154,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     sol = _run_verified(problem, chain)
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
-    if sol.status != "satisfied" and not deadline.solve_expired():
+    if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
         from stlc.backends.milp_conflict import explain_infeasible
 
         explain_infeasible(problem, sol, quiet=quiet)

@@ -11,7 +11,9 @@ from __future__ import annotations
 def registry() -> dict[str, type]:
     from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
     from stlc.backends.milp_backend import ExactMilp
+    from stlc.backends.milp_seed import MilpPathSeed
     from stlc.backends.team_backend import MilpSeed, TeamRefine
 
-    return {"milp": ExactMilp, "kinematic": KinematicGuess, "casadi": CasadiNlp,
+    return {"milp": ExactMilp, "kinematic": KinematicGuess,
+            "seed-milp": MilpPathSeed, "casadi": CasadiNlp,
             "team-milp": MilpSeed, "team-refine": TeamRefine}

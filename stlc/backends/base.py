@@ -169,7 +169,9 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
 def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solution, list]:
     """Run ``chain`` in order, each backend seeded with the previous ``Solution``.  Every
     backend's ``accepts`` runs before any work; a backend whose lowering needs no seed is
-    lowered while the previous one solves.  Returns the last Solution and all of them."""
+    lowered while the previous one solves.  A backend whose Solution is ``infeasible`` (a
+    proof that no plan exists: a seed's MILP over a relaxation) ends the chain there.
+    Returns the last Solution and all of them."""
     diags = [d for b in chain for d in b.accepts(problem)]
     if diags:
         raise StlcError(diags)
@@ -188,5 +190,7 @@ def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solut
         raw = wait()
         sol = b.invert(raw, inverse, p)
         sols.append(sol)
+        if sol.status == "infeasible":
+            break
         p = p.with_seed(sol)
     return sols[-1], sols

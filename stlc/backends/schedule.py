@@ -81,12 +81,20 @@ SEED_CHOICES = os.environ.get("STLC_SEED_CHOICES", "1") == "1"
 
 
 def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGrid,
-                    formula: ir.Formula) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N)."""
+                    formula: ir.Formula, start: dict | None = None
+                    ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N).  ``start`` (per
+    vehicle (P, V, A): a MILP seed's path) is where IPOPT starts, and its discrete choices
+    are kept (``choices``: the branch of every disjunction and the sample of every window
+    fixed from the start path), so this local NLP smooths the path without leaving the
+    homotopy class the MILP chose."""
     n, N, dt = grid.n, grid.n_intervals, grid.dt
     names = list(mission.vehicles)
     keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
     f = ir.restrict(formula, lambda s: s in keep)
+    fixed = _start_choices(f, start, program.params, grid) if start else {}
+    if fixed:
+        f = choices.choice_form(f, windows=True)[0]
     syms, chans, g, lbx, ubx, x0 = [], {}, [], [], [], []
     obj = ca.SX(0)
     for k, name in enumerate(names):
@@ -95,6 +103,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         for i, a in enumerate("xyz"):
             chans[f"{name}.pos.{a}"] = P[i, :]
             chans[f"{name}.vel.{a}"] = V[i, :]
+        chans.update({c: ca.SX(ca.DM(row.reshape(1, -1))) for c, row in fixed.items()})
         g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
         g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
         vmax, amax = vehicles.model_of(v).kinematic_limits(v)
@@ -111,7 +120,11 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         # start: hover at the start, bent sideways (breaks symmetric traps), vehicle-specific
         s = np.sin(np.pi * np.arange(n) / max(N, 1))
         P0 = np.tile(start, (n, 1)) + np.outer(s, [0.0, 0.15 * (1 if k % 2 == 0 else -1), 0.05])
-        x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
+        if start is not None and name in start:
+            Ps, Vs, As = start[name]
+            x0 += [Ps.T.ravel(), Vs.T.ravel(), As[:, :N].T.ravel()]
+        else:
+            x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
         obj += 1e-2 * ca.sumsqr(A) / N
     w = ca.vertcat(*syms)
     wx0 = np.concatenate(x0)
@@ -135,6 +148,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
             for i, a in enumerate("xyz"):
                 num_ch[f"{name}.pos.{a}"], num_ch[f"{name}.vel.{a}"] = P0[i], V0[i]
+        num_ch.update(fixed)
         aux0, _ = low.init_values(num_ch, program.params, GUESS_LAM)
         sol = solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]),
                      lbx=np.concatenate(lbx + [np.full(low.aux.numel(), -np.inf)]),
@@ -143,6 +157,22 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
         sol_w = np.asarray(sol["x"]).ravel()[: w.numel()]
     return _unpack(sol_w, names, n, N)
+
+
+def _start_choices(f: ir.Formula, start: dict, params, grid: TimeGrid) -> dict[str, np.ndarray]:
+    """The choice rows (``choices.choose``) of ``f`` on the start paths: the parameter signals
+    that fix its disjunctions and windows as the start path has them."""
+    if isinstance(f, (ir.TrueF, ir.FalseF)):
+        return {}
+    nodes = choices.choice_form(f, windows=True)[1]
+    if not nodes:
+        return {}
+    ch = {}
+    for name, (P, V, _) in start.items():
+        for i, a in enumerate("xyz"):
+            ch[f"{name}.pos.{a}"], ch[f"{name}.vel.{a}"] = P[i], V[i]
+    return {k: np.asarray(v, float) for k, v in
+            choices.choose(nodes, ch, params, grid.n, f, grid.dt).items()}
 
 
 def _unpack(w: np.ndarray, names: list[str], n: int, N: int

@@ -8,7 +8,9 @@ vehicle models — "linear dynamics only" —, formula nodes, functions, planned
 * ``team``: task-assignment MILP → waypoint refinement (missions with payloads, paper B);
 * ``milp``: the exact STL→MILP backend (linear vehicles, predicates linear in the state;
   integer variables decide every disjunction globally);
-* ``nlp``: kinematic guess → the full-dynamics smooth-robustness NLP (anything else).
+* ``nlp``: MILP seed (the discrete choices of a double-integrator abstraction, chosen
+  globally; ``milp_seed``) → the full-dynamics smooth-robustness NLP (anything else);
+  ``kinematic`` forces the local kinematic guess as the seed instead.
 
 A forced name (``--backend NAME`` or the mission's ``backend = NAME``) is a chain name or a
 registry name (the chain that ends with it); a forced chain that cannot plan the problem
@@ -25,7 +27,8 @@ from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 CHAINS: dict[str, tuple[str, ...]] = {
     "team": ("team-milp", "team-refine"),
     "milp": ("milp",),
-    "nlp": ("kinematic", "casadi"),
+    "nlp": ("seed-milp", "casadi"),
+    "kinematic": ("kinematic", "casadi"),
 }
 DEFAULT = "nlp"  #: planned when no chain accepts: its diagnostics say why
 

@@ -108,8 +108,11 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
             line=spec.span.line,
             binding_line=pred.span.line if pred is not None and pred.span.known else 0)
     status = sol.status
-    if status != Verdict.SOLVER_FAILED:
-        status = Verdict.SATISFIED if exact >= kappa and sol.feasible else Verdict.VIOLATED
+    satisfied = exact >= kappa and sol.feasible
+    if status == Verdict.INFEASIBLE and not satisfied:
+        pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
+    elif status != Verdict.SOLVER_FAILED:
+        status = Verdict.SATISFIED if satisfied else Verdict.VIOLATED
     notes = []
     if 0 <= exact < kappa:
         notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
