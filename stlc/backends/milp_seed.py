@@ -52,6 +52,9 @@ MAX_STEP_S = 0.5  #: the coarsest seed step (corner cuts between samples stay �
 MAX_SAMPLES = 121  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
 TIME_LIMIT_S = 6.0  #: HiGHS's wall limit for the seed (its incumbent is used at the limit)
 ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
+IMPROVE_S = 1.5  #: at most this long shortening the first path (choices free)
+IMPROVE_GAP = 0.05  #: … or until its penalty is within 5 % of HiGHS's bound
+POLISH_S = 0.3  #: kept for the last LP (choices fixed)
 TOL = 1e-9
 
 
@@ -197,32 +200,45 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True):
 
 
 def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
-    """Two phases: a path with ρ̂ ≥ κ (a feasibility MILP: HiGHS finds one far sooner than
-    it closes the optimisation), then, with its binaries fixed — its discrete choices —, the
-    LP maximising ρ̂ − penalty (the most robust, economical path of that homotopy class).
-    When no path reaches κ (or none was found in time), the whole MILP maximises ρ̂ −
-    penalty in the time left, its incumbent is the seed."""
+    """Three phases: a path with ρ̂ ≥ κ (a feasibility MILP: HiGHS finds one far sooner than
+    it closes any optimisation); then, from it as a MIP start, the MILP minimising the
+    acceleration penalty under ρ̂ ≥ κ for at most ``IMPROVE_S`` (a feasibility solution's
+    choices at samples where nothing binds are arbitrary: a path that wanders); then, with
+    the incumbent's binaries fixed — its discrete choices —, the LP maximising ρ̂ − penalty
+    (the most robust, economical path of that homotopy class).  When no path reaches κ (or
+    none was found in time), the whole MILP maximises ρ̂ − penalty in the time left and its
+    incumbent is the seed."""
     from stlc.backends.milp_model import Highs
 
     t0 = time.perf_counter()
+    left = lambda: max(limit - (time.perf_counter() - t0), 0.05)  # noqa: E731
     phases = []
-    first = None
+    best = None
     if top >= 0:
         h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6)
         h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
-        first = h.solve()
-        phases.append(("feasibility", first.status, first.wall_s))
-    left = max(limit - (time.perf_counter() - t0), 0.05)
-    h = Highs(milp, cost, time_limit=left, rel_gap=1e-3, abs_gap=1e-4)
-    if first is not None and first.x is not None:  # its choices fixed: an LP
+        best = h.solve()
+        phases.append(("feasibility", best.status, best.wall_s))
+        if best.x is not None and left() > 2 * POLISH_S:
+            penalty = {j: c for j, c in cost.items() if j != top}
+            h = Highs(milp, penalty, time_limit=min(IMPROVE_S, left() - POLISH_S),
+                      rel_gap=IMPROVE_GAP, abs_gap=1e-6)
+            h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
+            h.start(best.x)
+            res = h.solve()
+            phases.append(("shortest path (choices free)", res.status, res.wall_s))
+            if res.x is not None:
+                best = res
+    h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
+    if best is not None and best.x is not None:  # its choices fixed: an LP
         for j, integer in enumerate(milp.integer):
             if integer:
-                v = float(round(first.x[j]))
+                v = float(round(best.x[j]))
                 h.set_col_bounds(j, v, v)
         res = h.solve()
         phases.append(("polish (choices fixed)", res.status, res.wall_s))
         if res.x is None:
-            res.x, res.status = first.x, first.status
+            res.x, res.status = best.x, best.status
         return res, phases
     res = h.solve()
     phases.append(("optimisation", res.status, res.wall_s))
