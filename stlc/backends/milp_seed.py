@@ -219,6 +219,8 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
         h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
         best = h.solve()
         phases.append(("feasibility", best.status, best.wall_s))
+        if best.status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
+            return best, phases
         if best.x is not None and left() > 2 * POLISH_S:
             penalty = {j: c for j, c in cost.items() if j != top}
             h = Highs(milp, penalty, time_limit=min(IMPROVE_S, left() - POLISH_S),
@@ -311,6 +313,7 @@ class MilpPathSeed(KinematicGuess):
                           SolverStatus.OPTIMAL if status == "Optimal" else
                           SolverStatus.MAX_TIME if status == "Time limit reached" else
                           SolverStatus.FAILED),
-            "return_status": str(status), "converged": status == "Optimal", "seed": rec})
+            "return_status": "infeasible" if proof is not None else str(status),
+            "converged": status == "Optimal", "seed": rec})
         sol.timing.update({"guess_s": dt_s, "guess_cpu_s": cpu_s, "guess_wait_s": waited_s})
         return sol

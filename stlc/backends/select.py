@@ -99,7 +99,12 @@ def chain_record(chain: Chain, sols: list) -> dict:
     stages = []
     for b, s in zip(chain.backends, sols):
         st = s.solver.get("return_status", s.solver.get("status", ""))
-        stages.append({"backend": b.name, "status": str(st),
-                       "converged": bool(s.solver.get("converged", str(st) in
-                                                      ("optimal", "acceptable")))})
+        stage = {"backend": b.name, "status": str(st),
+                 "converged": bool(s.solver.get("converged", str(st) in
+                                                ("optimal", "acceptable")))}
+        if "seed" in s.solver:  # the MILP seed's record: grid, phases, time, ρ̂
+            stage["seed"] = s.solver["seed"]
+        stages.append(stage)
+    for b in chain.backends[len(sols):]:  # after a proof of infeasibility
+        stages.append({"backend": b.name, "status": "not_run", "converged": False})
     return {"name": chain.name, "forced": chain.forced, "stages": stages}
