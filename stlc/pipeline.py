@@ -152,6 +152,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
               f"{' (forced)' if chain.forced else ''}: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
     sol = _run_verified(problem, chain)
+    sol = _next_choices(problem, chain, sol, quiet)
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
     if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
@@ -182,6 +183,42 @@ def _run_verified(problem, chain):
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
+    return sol
+
+
+NEXT_CHOICES = 2  #: further MILP seeds tried when the NLP's plan from a seed misses κ
+
+
+def _next_choices(problem, chain, sol, quiet: bool):
+    """The NLP planned from a MILP seed missed κ: plan again from the next-best discrete
+    choice (the seed with a no-good cut on its choices for the violated conjuncts), at most
+    ``NEXT_CHOICES`` times and within the time limit; the verified plan with the larger
+    exact robustness is kept, and the record lists every try."""
+    from stlc.backends.select import Chain
+
+    seed = chain.backends[0] if chain.backends else None
+    tries = []
+    for _ in range(NEXT_CHOICES):
+        if sol.status in ("satisfied", "infeasible") or deadline.solve_expired() \
+                or not hasattr(seed, "next_seed"):
+            break
+        seed = seed.next_seed(problem, sol.channels)
+        if seed is None:
+            break
+        if not quiet:
+            print(f"{problem.mission.name}: exact robustness {sol.robustness_exact:+.4f} < κ; "
+                  "planning again from the next-best MILP seed (its choices for the violated "
+                  "specs excluded)", file=sys.stderr)
+        other = _run_verified(problem, Chain(chain.name, [seed, *chain.backends[1:]],
+                                             chain.forced))
+        tries.append({"exact": other.robustness_exact, "status": str(other.status)})
+        a, b = sol.robustness_exact, other.robustness_exact
+        if b == b and not (a == a and a >= b):
+            other.notes.append(f"planned from the next-best MILP seed (try {len(tries) + 1}): "
+                               f"the first seed's plan had exact robustness {a:.6g}")
+            sol = other
+    if tries:
+        sol.solver["chain"]["next_choices"] = tries
     return sol
 
 

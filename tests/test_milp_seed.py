@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from stlc import pipeline
+from stlc.analysis import monitor
 from stlc.backends import milp_seed, schedule
 from stlc.planning.problem import from_mission
 from stlc.semantics import ir
@@ -33,7 +34,7 @@ scenario {
 mission trap {
   vehicles = [p]
   horizon = 9 s
-  step = 0.1 s
+  step = 0.25 s
   threshold = 0.2
   spec safe = always[0, 9] (p.pos in workspace and p.pos not in wall)
   spec reach = eventually[4, 8] always[0, 1] (p.pos in near or p.pos in far)
@@ -103,12 +104,14 @@ def test_the_seed_chooses_the_far_class_and_the_nlp_keeps_it(tmp_path):
     problem = from_mission(program, mission)
     paths, rec = milp_seed.plan(problem)
     assert rec["status"] == "Optimal" and rec["step_s"] == pytest.approx(0.5)
-    P = paths["p"][0]
-    assert P[0, -1] > 2.5  # beyond the wall: the far box, not the near one
-    # the kinematic NLP smoothing it keeps the far class
-    kin = schedule.kinematic_guess(program, mission, problem.grid, problem.requirement,
-                                   start=paths)
-    assert kin["p"][0][0, -1] > 2.5
+    # `reach` on the seed path and on its smoothing: ≥ κ = 0.2, so held in the far box (a
+    # hold in the near box scores at most its half-width, 0.05)
+    reach = problem.specs["reach"].normal
+    for P, V, _ in (paths["p"], schedule.kinematic_guess(
+            program, mission, problem.grid, problem.requirement, start=paths)["p"]):
+        ch = {f"p.{f}.{a}": X[i] for f, X in (("pos", P), ("vel", V))
+              for i, a in enumerate("xyz")}
+        assert monitor.robustness(reach, problem.grid.dt, ch, problem.params) >= 0.2
     # the whole `nlp` chain: satisfied (≥ κ = 0.2), so in the far box: a plan holding in
     # the near box scores at most its half-width, 0.05
     _, sol = pipeline.plan(program, mission, backend="nlp")
@@ -125,3 +128,46 @@ def test_an_impossible_mission_is_proved_before_the_nlp(tmp_path):
     assert [(s["backend"], s["status"]) for s in stages] == [
         ("milp seed", "infeasible"), ("casadi/ipopt", "not_run")]  # the NLP never ran
     assert any(d.code == "STL504" for d in sol.diagnostics)
+
+
+def test_the_next_seed_leaves_out_the_choices_of_the_violated_spec(tmp_path):
+    from stlc.backends.milp_seed import MilpPathSeed, conjuncts
+    from stlc.planning.fallback import hover_solution
+
+    program, mission = _problem(TRAP, tmp_path, "trap")
+    problem = from_mission(program, mission)
+    first = MilpPathSeed()
+    first.invert(first.start(None, problem)(), None, problem)
+    parts = conjuncts(milp_seed.seed_formula(problem))
+    reach = next(i for i, c in enumerate(parts)
+                 if any(isinstance(g, ir.Eventually) for g in ir.nodes(c)))
+    # a plan that hovers at the start violates `reach` only: the next seed cuts its choices
+    hover = hover_solution(problem, "test").channels
+    nxt = first.next_seed(problem, hover)
+    assert list(nxt.exclude[0]) == [reach]
+    nxt.invert(nxt.start(None, problem)(), None, problem)
+    assert nxt.choices[reach][1] != first.choices[reach][1]
+    # a third seed excludes both earlier choices
+    third = nxt.next_seed(problem, hover)
+    assert len(third.exclude) == 2
+
+
+def test_a_plan_that_misses_kappa_is_planned_again_from_the_next_seed(tmp_path, monkeypatch):
+    # the NLP's plan is replaced by a hover (violated): the pipeline tries the next seeds,
+    # at most NEXT_CHOICES times, and records each try
+    from stlc.backends.casadi_backend import CasadiNlp
+    from stlc.planning.fallback import hover_solution
+
+    calls = []
+
+    def hovering(self, raw, inv, problem):
+        calls.append(problem.seed.solver["seed"]["excluded"])
+        return hover_solution(problem, "test")
+
+    monkeypatch.setattr(CasadiNlp, "solve", lambda self, lowered, problem: None)
+    monkeypatch.setattr(CasadiNlp, "invert", hovering)
+    program, mission = _problem(TRAP, tmp_path, "trap")
+    _, sol = pipeline.plan(program, mission, backend="nlp")
+    assert calls == [0, 1, 2]  # the first seed, then two with more cuts
+    assert len(sol.solver["chain"]["next_choices"]) == pipeline.NEXT_CHOICES
+    assert sol.status == "violated"

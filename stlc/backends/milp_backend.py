@@ -62,6 +62,7 @@ class Lowered:
     build_s: float
     terms: dict[str, Term] = field(default_factory=dict)
     box: dict = field(default_factory=dict)
+    spans: dict[str, tuple[int, int]] = field(default_factory=dict)
 
 
 def planned_channels(problem: PlanningProblem, relaxed: bool = False) -> set[str]:
@@ -105,10 +106,12 @@ def invariant_box(problem: PlanningProblem) -> dict[str, tuple[float, float]]:
 
 
 def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
-          box: dict[str, tuple[float, float]] | None = None) -> Lowered:
+          box: dict[str, tuple[float, float]] | None = None,
+          top_of: str | None = None) -> Lowered:
     """The MILP of ``problem``'s vehicles with each formula of ``formulas`` encoded at
-    sample 0 (``terms``); ``lins`` maps a vehicle to its (states, inputs, A, B, bounds, x0)
-    (default: the vehicle's own linear model)."""
+    sample 0 (``terms``; ``spans``: the columns each one added), and the epigraph column
+    ρ̂ of formula ``top_of`` (default: the only formula); ``lins`` maps a vehicle to its
+    (states, inputs, A, B, bounds, x0) (default: the vehicle's own linear model)."""
     t0 = time.perf_counter()
     m = Milp()
     grid = problem.grid
@@ -153,14 +156,20 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
         return None if f is None else np.asarray(f, dtype=float)
 
     enc = Encoder(m, grid, dict(problem.params), channel, fixed)
-    terms = {name: enc.at(f, 0) for name, f in formulas.items()}
+    terms, spans = {}, {}
+    for name, f in formulas.items():  # in order: later formulas reuse earlier terms (memo)
+        c0 = m.n_cols
+        terms[name] = enc.at(f, 0)
+        spans[name] = (c0, m.n_cols)
     top = -1
-    if len(formulas) == 1:
-        t = next(iter(terms.values()))
+    if top_of is None and len(formulas) == 1:
+        top_of = next(iter(formulas))
+    if top_of is not None:
+        t = terms[top_of]
         if not t.is_const:
             top = m.var(t.lo, t.hi)
             enc._le(top, t)
-    return Lowered(m, lvs, top, enc, time.perf_counter() - t0, terms)
+    return Lowered(m, lvs, top, enc, time.perf_counter() - t0, terms, spans=spans)
 
 
 def nonlinear_predicates(problem: PlanningProblem, formula: ir.Formula) -> list[Diagnostic]:

@@ -143,9 +143,17 @@ def _lins(problem, h: float):
     return lins
 
 
-def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True):
+def conjuncts(f: ir.Formula) -> list[ir.Formula]:
+    return list(f.args) if isinstance(f, ir.And) else [f]
+
+
+def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
+         exclude: tuple = ()):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
-    of the MILP; the paths are None when the MILP found none (or cannot be built)."""
+    of the MILP; the paths are None when the MILP found none (or cannot be built).
+    ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
+    0/1 values)} — a no-good cut: at least one of those binaries differs.  The record's
+    ``choices`` are this seed's, in the same form, for every conjunct of the seed formula."""
     from stlc.backends.milp_backend import build, invariant_box
     from stlc.backends.milp_model import Highs
 
@@ -162,12 +170,21 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True):
     fixed = {k: np.asarray(v)[::m] for k, v in problem.fixed_channels.items()}
     cp = replace(problem, grid=coarse, fixed_channels=fixed, requirement=f, seed=None)
     lins = _lins(problem, h)
+    parts = {f"c{i}": c for i, c in enumerate(conjuncts(f))}
     try:
-        low = build(cp, {"requirement": f}, lins, box=invariant_box(cp))
+        low = build(cp, {**parts, "requirement": f}, lins, box=invariant_box(cp),
+                    top_of="requirement")
     except (NotLinear, ValueError) as e:
         rec["status"] = f"not encodable: {e}"
         return None, rec
     milp = low.milp
+    bins = {i: [j for j in range(*low.spans[f"c{i}"]) if milp.integer[j]]
+            for i in range(len(parts))}
+    for cut in exclude:  # Σ_{v=0} y − Σ_{v=1} y ≥ 1 − |ones|
+        coefs = {int(j): (1.0 if v < 0.5 else -1.0) for cols, vals in cut.values()
+                 for j, v in zip(cols, vals)}
+        if coefs:
+            milp.row(coefs, 1.0 - sum(1 for c in coefs.values() if c < 0), np.inf)
     if lins.hold:  # the holdable end: at rest at the last seed sample
         for lv in low.vehicles:
             for c in lv.x[-1][3:]:
@@ -191,6 +208,9 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True):
         return None, rec
     rho = float(res.x[low.top]) if low.top >= 0 else float("nan")
     rec["robustness"] = rho
+    rec["excluded"] = len(exclude)
+    rec["choices"] = {i: (cols, [int(round(res.x[j])) for j in cols])
+                      for i, cols in bins.items() if cols}
     paths = {}
     for lv, v in zip(low.vehicles, problem.vehicles()):
         xs, uu = lv.simulate(res.x)
@@ -272,11 +292,16 @@ class MilpPathSeed(KinematicGuess):
 
     name = "milp seed"
 
+    def __init__(self, quiet: bool = True, exclude: tuple = ()):
+        self.quiet = quiet
+        self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
+        self.choices = None  # this seed's, after ``invert``
+
     def solve(self, lowered, problem):
         from stlc.backends import schedule
 
         t0 = time.perf_counter()
-        paths, rec = plan(problem)
+        paths, rec = plan(problem, exclude=self.exclude)
         proof = None
         if rec.get("phases") and rec["phases"][0][1] == "Infeasible":
             from stlc.backends.milp_conflict import prove_infeasible
@@ -292,8 +317,24 @@ class MilpPathSeed(KinematicGuess):
                 rec["fallback"] = "kinematic guess"
         return (paths, rec, proof), time.perf_counter() - t0
 
+    def next_seed(self, problem, channels) -> MilpPathSeed | None:
+        """A seed that leaves out this one's choices for the conjuncts of the seed formula
+        that the plan ``channels`` violates (exact monitor, κ): the next-best discrete
+        choice, or None when this seed chose nothing."""
+        from stlc.analysis import monitor
+
+        if not self.choices:
+            return None
+        f = seed_formula(problem)
+        bad = {i for i, c in enumerate(conjuncts(f)) if i in self.choices and
+               float(monitor.robustness(c, problem.grid.dt, channels, problem.params))
+               < problem.threshold}
+        cut = {i: self.choices[i] for i in (bad or self.choices)}
+        return MilpPathSeed(self.quiet, self.exclude + (cut,))
+
     def invert(self, raw, inverse, problem):
         (paths, rec, proof), dt_s, cpu_s, waited_s = raw
+        self.choices = rec.pop("choices", None)
         if proof is not None:
             from stlc.backends.milp_conflict import mark
             from stlc.planning.fallback import hover_solution
