@@ -50,7 +50,7 @@ from stlc.semantics.timegrid import TimeGrid
 
 MAX_STEP_S = 0.5  #: the coarsest seed step (corner cuts between samples stay ≲ v·h/2)
 MAX_SAMPLES = 121  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
-TIME_LIMIT_S = 6.0  #: HiGHS's wall limit for the seed (its incumbent is used at the limit)
+TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
 ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
 IMPROVE_S = 1.5  #: at most this long shortening the first path (choices free)
 IMPROVE_GAP = 0.05  #: … or until its penalty is within 5 % of HiGHS's bound
@@ -343,6 +343,10 @@ class MilpPathSeed(KinematicGuess):
                                  "infeasible, so no trajectory was planned: the plan shown is "
                                  "every vehicle hovering at its start")
             mark(problem, sol, proof)
+            sol.smoothing = {"method": problem.smoothing.method,
+                             "lambda": problem.smoothing.lam,
+                             "lambda_final": problem.smoothing.lam,
+                             "threshold": problem.threshold}
         else:
             sol = super().invert((paths, dt_s, cpu_s, waited_s), inverse, problem)
         ok = "fallback" not in rec
