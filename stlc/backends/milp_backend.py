@@ -251,6 +251,16 @@ class ExactMilp(Backend):
         if first.x is not None:
             h.start(first.x)
         res = h.solve()
+        if res.x is not None and abs(res.x[low.top] + res.objective) > 1e-6 * (
+                1 + abs(res.objective)):
+            # HiGHS (1.x) can return the MIP start's point beside another point's objective
+            # (seen when presolve ends the search): never trust one without the other
+            self.phases.append(("optimisation (inconsistent point)", res.status, res.wall_s))
+            h = Highs(low.milp, {low.top: -1.0},
+                      time_limit=max(limit - (time.perf_counter() - t0), 1.0))
+            wall = res.wall_s
+            res = h.solve()
+            res.wall_s += wall
         self.phases.append(("optimisation", res.status, res.wall_s))
         res.wall_s += first.wall_s
         if res.x is None and first.x is not None:
