@@ -55,8 +55,8 @@ from stlc.backends.casadi_nlp import (
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
+from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir, model
-from stlc.semantics.timegrid import TimeGrid
 
 LAM_FACTOR = 3.0
 LAM_MAX = 300.0
@@ -80,13 +80,32 @@ MAX_LAM_STAGES = 4
 SEED_CHOICES = os.environ.get("STLC_SEED_CHOICES", "1") == "1"
 
 
-def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGrid,
-                    formula: ir.Formula) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N)."""
+def _start_kinematics(problem: PlanningProblem, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(position, velocity) of the vehicle's start state (the problem's ``start_state``)."""
+    v = problem.program.vehicles[name]
+    x0 = problem.start_state(name)
+    chans = vehicles.model_of(v).state_channels(v)
+
+    def part(field: str, default) -> np.ndarray:
+        idx = [chans.index(f"{name}.{field}.{a}") if f"{name}.{field}.{a}" in chans else None
+               for a in "xyz"]
+        if None in idx:
+            return np.array(default, dtype=float)
+        return np.array([x0[i] for i in idx], dtype=float)
+
+    return part("pos", v.start_pos), part("vel", (0.0, 0.0, 0.0))
+
+
+def kinematic_guess(problem: PlanningProblem
+                    ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per vehicle of the problem's team: positions (3×n), velocities (3×n), accelerations
+    (3×N) of the double-integrator path maximising the smooth robustness of the position and
+    velocity part of ``problem.requirement`` from the problem's start states."""
+    program, grid = problem.program, problem.grid
     n, N, dt = grid.n, grid.n_intervals, grid.dt
-    names = list(mission.vehicles)
+    names = list(problem.team)
     keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
-    f = ir.restrict(formula, lambda s: s in keep)
+    f = ir.restrict(problem.requirement, lambda s: s in keep)
     syms, chans, g, lbx, ubx, x0 = [], {}, [], [], [], []
     obj = ca.SX(0)
     for k, name in enumerate(names):
@@ -98,12 +117,12 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
         g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
         vmax, amax = vehicles.model_of(v).kinematic_limits(v)
-        start, vel0 = np.array(v.start_pos), np.array(getattr(v, "start_vel", (0, 0, 0)))
+        start, vel0 = _start_kinematics(problem, name)
         plo, phi_ = np.tile(start, (n, 1)).T.copy(), np.tile(start, (n, 1)).T.copy()
         plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
         vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
         vlo[:, 0] = vhi[:, 0] = vel0
-        if mission.options.get("end", "hover") != "free":  # a holdable end (flyable.py)
+        if problem.hold_end:  # a holdable end (flyable.py)
             vlo[:, -1] = vhi[:, -1] = 0.0
         syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
         lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
@@ -119,7 +138,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         sol_w = wx0
     else:
         low = lower_robustness(f, grid, chans, program.params, GUESS_LAM,
-                               method=mission.smoothing.method)
+                               method=problem.smoothing.method)
         cons, lb_r, ub_r = low.constraints()
         W = ca.vertcat(w, low.aux)
         G = ca.vertcat(*g, cons)
@@ -229,16 +248,18 @@ def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
     return prob.lowered.init_values(lowering_channels(w, inv), params, lam)[1]
 
 
-def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
-                  inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
+def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
+                  w0: np.ndarray, quiet: bool = True) -> RawResult:
+    """The λ/energy schedule (module doc) on the built NLP, with the problem's objective,
+    threshold, smoothing and comparison variants."""
     from stlc.analysis import smooth
 
     deadline.disarm()  # from here every solve and stage checks the time limit itself
-    params = program.params
-    obj = mission.objective
-    kappa = mission.threshold
-    lam = mission.smoothing.lam
-    method = mission.smoothing.method
+    params = problem.params
+    obj = problem.objective
+    kappa = problem.threshold
+    lam = problem.smoothing.lam
+    method = problem.smoothing.method
     stages: list[Stage] = []
     prob.progress.kappa = kappa
 
@@ -324,7 +345,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             result.w, result.lam = w_e, lam_e
         inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
             if inv.choice_nodes else {}
-    for name, variant in mission.options.get("compare", []):
+    for name, variant in problem.comparisons:
         if variant is None or deadline.solve_expired():
             continue
         if variant.energy_weight == 0 and variant.forward_weight == 0:

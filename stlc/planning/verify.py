@@ -133,10 +133,10 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     from stlc.planning.holdable import end_state, flag
 
     sol = judge(problem, sol).apply(sol)
-    sol.end_state = end_state(problem.mission, problem.vehicles(), sol.channels)
+    sol.end_state = end_state(problem.vehicles(), sol.channels)
     if not any(vehicles.model_of(v).has_rotor_energy(v) for v in problem.vehicles()):
         sol.energy, sol.energy_profile = float("nan"), None
-    sol.notes.extend(flag(problem.mission, sol.end_state))
+    sol.notes.extend(flag(problem.hold_end, sol.end_state))
     return sol
 
 
