@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stlc.semantics.origin import Origin
+
 
 class Verdict(enum.StrEnum):
     """What the exact monitor says of a plan (``Solution.status``)."""
@@ -37,6 +39,8 @@ class SpecResult:
     binding_predicate: str = ""  # label of the predicate that decides the robustness
     line: int = 0  # source line of the spec definition
     binding_line: int = 0  # source line of that predicate (from its span; 0 if unknown)
+    #: what that predicate is (a box face, a range side, negated or not), as data
+    binding_origin: Origin | None = None
 
 
 @dataclass

@@ -106,7 +106,8 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
             line=spec.span.line,
-            binding_line=pred.span.line if pred is not None and pred.span.known else 0)
+            binding_line=pred.span.line if pred is not None and pred.span.known else 0,
+            binding_origin=pred.origin if pred is not None else None)
     status = sol.status
     if status != Verdict.SOLVER_FAILED:
         status = Verdict.SATISFIED if exact >= kappa and sol.feasible else Verdict.VIOLATED

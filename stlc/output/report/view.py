@@ -233,7 +233,7 @@ def _spec_rows(program: Program, mission: Mission, sol: Solution,
             "tightest_time": num(r.tightest_time),
             "tightest_text": fmt(r.tightest_time, unit="s") if r.tightest_time is not None
             else "—",
-            "binding_predicate": readable(r.binding_predicate),
+            "binding_predicate": readable(r.binding_origin, r.binding_predicate),
             "binding_predicate_raw": r.binding_predicate or "",
             "line": line, "end_line": end_line,
             "anchor": anchor(line, n_lines),
