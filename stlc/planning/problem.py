@@ -58,6 +58,10 @@ class PlanningProblem:
     start_states: Mapping[str, np.ndarray] = field(default_factory=_frozen)
     fixed_channels: Mapping[str, np.ndarray] = field(default_factory=_frozen)
     window: tuple[float, float] | None = None  # (start, end) s of the part being planned
+    #: a team problem's targets to install and refilling stations to use (names; None: all
+    #: the scenario's) — a takeover's pending targets and free stations
+    targets: tuple[str, ...] | None = None
+    stations: tuple[str, ...] | None = None
     #: the ``--set`` values of this instance (SI, by name as written), already applied to
     #: ``program`` (its params and vehicle starts are the NLP's parameters: nlp_cache.bind)
     values: Mapping[str, float] = field(default_factory=_frozen)
