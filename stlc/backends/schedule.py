@@ -55,7 +55,7 @@ from stlc.backends.casadi_nlp import (
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
-from stlc.semantics import ir, model
+from stlc.semantics import ir, model, reads
 from stlc.semantics.timegrid import TimeGrid
 
 LAM_FACTOR = 3.0
@@ -163,11 +163,12 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
                ) -> np.ndarray:
     """Decision vector from the kinematic path (see the vehicle model's ``guess``)."""
     w = np.zeros(prob.n_vars)
+    needed = reads.reader(inv.formula, inv.grid.dt, inv.grid.n)  # where a channel is read
     for L in inv.layouts:
         v = L.vehicle
         P, V, A = kin[v.name]
         vm = vehicles.model_of(v)
-        X, U = vm.guess(v, P, V, A, inv.grid.dt)
+        X, U = vm.guess(v, P, V, A, inv.grid.dt, needed)
         U = vm.fit_guess_inputs(v, U, prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu])
         w[L.x_slice] = X.T.ravel()
         w[L.u_slice] = U.T.ravel()
