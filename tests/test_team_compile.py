@@ -133,7 +133,7 @@ def test_forward_speed_from_declared_aerodynamic_data(tmp_path):
     assert sol.status == "satisfied" and sol.solver["forward_cost"] is not None
     # the plan's energy from paper B's power model (stlc.vehicles.power), recomputed here
     # from the plan's own velocities and accelerations: T = m |a + g e_z|, the induced
-    # velocity by fixed-point iteration of v_i = v_h^2 / sqrt(V^2 + v_i^2) (V horizontal),
+    # velocity v_i solving v_i sqrt(V^2 + v_i^2) = v_h^2 by bisection (V horizontal),
     # P = kappa T v_i + rho f V^3 / 2, E = sum_k dt P_k per drone
     dt = float(sol.times[1] - sol.times[0])
     by_hand = {}
@@ -143,9 +143,12 @@ def test_forward_speed_from_declared_aerodynamic_data(tmp_path):
         thrust = 1.5 * np.linalg.norm(acc + [0.0, 0.0, 9.81], axis=1)
         vh2 = thrust / (2 * 1.225 * 4 * 0.05)
         V = np.hypot(vel[:, 0], vel[:, 1])
-        vi = np.sqrt(vh2)
-        for _ in range(500):
-            vi = vh2 / np.sqrt(V**2 + vi**2)
+        lo, hi = np.zeros_like(V), np.sqrt(vh2)  # v_i <= v_h; the left side grows with v_i
+        for _ in range(80):
+            mid = (lo + hi) / 2
+            low = mid * np.sqrt(V**2 + mid**2) < vh2
+            lo, hi = np.where(low, mid, lo), np.where(low, hi, mid)
+        vi = (lo + hi) / 2
         by_hand[d] = float(np.sum(dt * (1.15 * thrust * vi + 0.5 * 1.225 * 0.01 * V**3)))
     assert sol.energy_by_vehicle == pytest.approx(by_hand, rel=1e-9)
     assert sol.energy == pytest.approx(sum(by_hand.values()), rel=1e-9)
