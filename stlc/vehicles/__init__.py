@@ -32,10 +32,11 @@ class VehicleModel(Protocol):
     (per-axis limits drawn by the report, e.g. {"vel": v_max, "acc": a_max}),
     ``guess`` (a state/input guess along a kinematic path; ``needed(channel)``, when given,
     is the boolean mask of samples at which the requirement reads that channel,
-    ``stlc.semantics.reads``), ``rotor_forces`` ((force_min, force_max, c_f) of rotors, or None) and ``linear_model``
-    (``(A, B)`` of linear dynamics: continuous time ẋ = A x + B u without ``dt``, the
-    exact zero-order-hold discretisation x+ = A x + B u with ``dt``; ``None`` for a
-    nonlinear model)."""
+    ``stlc.semantics.reads``), ``energy_profile`` (J per sample; a point mass reads its
+    accelerations from ``U`` when given), ``rotor_forces`` ((force_min, force_max, c_f) of
+    rotors, or None) and ``linear_model`` (``(A, B)`` of linear dynamics: continuous time
+    ẋ = A x + B u without ``dt``, the exact zero-order-hold discretisation x+ = A x + B u
+    with ``dt``; ``None`` for a nonlinear model)."""
 
     kind: str  # the name written after `vehicle NAME :` in a file
 
