@@ -197,7 +197,8 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
         v = L.vehicle
         P, V, A = kin[v.name]
         vm = vehicles.model_of(v)
-        X, U = vm.guess(v, P, V, A, inv.grid.dt, needed)
+        X, U = (vm.guess(v, P, V, A, inv.grid.dt, needed) if vehicles.takes(vm.guess, "needed")
+                else vm.guess(v, P, V, A, inv.grid.dt))
         U = vm.fit_guess_inputs(v, U, prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu])
         w[L.x_slice] = X.T.ravel()
         w[L.u_slice] = U.T.ravel()

@@ -183,8 +183,10 @@ def plan_energy(problem: PlanningProblem, sol: Solution) -> None:
             ins = vm.input_channels(v)
             U = (np.stack([np.asarray(sol.channels[c], dtype=float) for c in ins], axis=1)
                  if ins and all(c in sol.channels for c in ins) else None)
-            profiles[v.name] = np.asarray(vm.energy_profile(
-                v, vehicles.state_matrix(v, sol.channels), dt, U), dtype=float)
+            X = vehicles.state_matrix(v, sol.channels)
+            profiles[v.name] = np.asarray(vm.energy_profile(v, X, dt, U)
+                                          if vehicles.takes(vm.energy_profile, "U")
+                                          else vm.energy_profile(v, X, dt), dtype=float)
     sol.energy_by_vehicle = {k: float(p.sum()) for k, p in profiles.items()}
     if profiles and len(profiles) == len(problem.vehicles()):
         sol.energy_profile = np.sum(list(profiles.values()), axis=0)

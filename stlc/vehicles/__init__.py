@@ -86,6 +86,17 @@ def model_of(v: model.Vehicle) -> VehicleModel:
         raise TypeError(f"no vehicle model registered for {type(v).__name__}") from None
 
 
+def takes(method, name: str) -> bool:
+    """Does a model's method accept the optional parameter ``name``?  (A model written
+    before ``guess(…, needed)`` or ``energy_profile(…, U)`` existed does not.)"""
+    import inspect
+
+    try:
+        return name in inspect.signature(method).parameters
+    except (TypeError, ValueError):
+        return False
+
+
 def kinds() -> list[str]:
     return sorted(vm.kind for vm in _REGISTRY.values())
 
