@@ -502,7 +502,8 @@ def test_point_mass_team_without_risk_or_comparison():
     assert view["signals"]["markers"] == [{"spec": "separation", "t": 0.0,
                                            "label": "separation fails"}]
     html = render_report(view)
-    assert "modelled for multirotors only" in html and 'id="energy-profile"' not in html
+    assert "Energy not computed" in html and "paper B's power model" in html
+    assert 'id="energy-profile"' not in html
 
 
 def test_signals_derived_when_channels_missing():

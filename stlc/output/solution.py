@@ -43,6 +43,7 @@ def solution_json_dict(sol: Solution) -> dict:
             for k, v in sol.specs.items()
         },
         "energy": num(sol.energy),
+        "energy_by_vehicle": {k: num(v) for k, v in sol.energy_by_vehicle.items()},
         "timing": {k: round(float(v), 4) for k, v in sol.timing.items()},
         "solver": sol.solver,
         "smoothing": sol.smoothing,

@@ -83,6 +83,8 @@ class Solution:
     notes: list[str] = field(default_factory=list)
     #: energy of each sample (J, summing to ``energy``), None without an energy model
     energy_profile: np.ndarray | None = None
+    #: energy per vehicle (J), for the vehicles with an energy model (set by verification)
+    energy_by_vehicle: dict[str, float] = field(default_factory=dict)
     comparisons: list[Comparison] = field(default_factory=list)
     #: limits drawn on the report's signal plots, from the vehicles and the predicates
     bounds: dict[str, object] = field(default_factory=dict)
