@@ -271,12 +271,13 @@ def plan_in_time(program: model.Program, mission: model.Mission, *, quiet: bool 
         return problem, judged_fallback(problem)
 
 
-def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
-    """Run the mission's risk cases on the plan; results go onto the Solution (in memory)."""
+def assess_risk(program: model.Program, mission: model.Mission, sol, problem=None) -> None:
+    """Run the mission's risk cases on the plan (of ``problem``, whose requirement and named
+    specs are assessed); results go onto the Solution (in memory)."""
     from stlc.analysis.assess import run_risk
 
     t0 = time.perf_counter()
-    sol.risk, sol.risk_results = run_risk(program, mission, sol)
+    sol.risk, sol.risk_results = run_risk(program, mission, sol, problem=problem)
     sol.timing["risk_s"] = time.perf_counter() - t0
 
 
@@ -336,14 +337,14 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                               start=start if time_limit is not None and last else None,
                               overrun=outputs.overrun_writer(program, m, outdirs[m.name], code,
                                                                quiet)):
-            _, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
-                                  values=loaded.values)
+            problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
+                                        values=loaded.values)
             sol.timing.update(loaded.timing)
             if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
                 sol.notes.append("the risk cases were not assessed: the time limit ran out "
                                  "(`stlc risk` assesses them on trajectory.csv)")
             elif risk and m.risk is not None:
-                assess_risk(program, m, sol)
+                assess_risk(program, m, sol, problem)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
         found = list(sol.diagnostics)  # the plan's own warnings (STLW02)

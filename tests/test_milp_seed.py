@@ -108,7 +108,7 @@ def test_the_seed_chooses_the_far_class_and_the_nlp_keeps_it(tmp_path):
     # hold in the near box scores at most its half-width, 0.05)
     reach = problem.specs["reach"].normal
     for P, V, _ in (paths["p"], schedule.kinematic_guess(
-            program, mission, problem.grid, problem.requirement, start=paths)["p"]):
+            problem, path=paths)["p"]):
         ch = {f"p.{f}.{a}": X[i] for f, X in (("pos", P), ("vel", V))
               for i, a in enumerate("xyz")}
         assert monitor.robustness(reach, problem.grid.dt, ch, problem.params) >= 0.2

@@ -64,6 +64,9 @@ class Capabilities:
     #: plans only problems whose requirement reads one of these signal fields (a team
     #: chain: ``payload``); empty = any problem
     needs_signals: frozenset[str] = frozenset()
+    #: plans a part of the grid (``problem.window``) from given start states; a backend
+    #: without it plans the whole horizon and refuses a windowed problem
+    windows: bool = False
 
     def describe(self) -> str:
         return (f"vehicles {sorted(self.vehicle_models)}"
@@ -134,6 +137,10 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
             out.append(Diagnostic("STL401", f"{who} cannot plan a `{kind}` vehicle "
                                   f"(`{v.name}`)", v.span,
                                   "supported models: " + ", ".join(sorted(cap.vehicle_models))))
+    if problem.window is not None and not cap.windows:
+        out.append(Diagnostic("STL401", f"{who} plans the whole horizon, not the window "
+                              f"[{problem.window[0]:g}, {problem.window[1]:g}] s",
+                              problem.mission.span))
     if not cap.team and len(problem.team) > 1:
         out.append(Diagnostic("STL401", f"{who} plans one vehicle, the mission has "
                               f"{len(problem.team)}", problem.mission.span))

@@ -28,7 +28,7 @@ from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_veh
 from stlc.diagnostics import Diagnostic
 from stlc.planning.solution import Solution, Verdict
 from stlc import deadline
-from stlc.backends.flyable import HOLD_TOL, holds_end
+from stlc.backends.flyable import HOLD_TOL
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
@@ -135,7 +135,7 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
             bounds = replace(bounds, x_lo=lo_, x_hi=hi_)
         lvs.append(linear_vehicle(m, v.name, states, inputs, a, b, bounds, x0, grid.dt,
                                   grid.n, discrete))
-    if lins is None and holds_end(problem.mission):  # the NLP's holdable end, as rows
+    if lins is None and problem.hold_end:  # the NLP's holdable end, as rows
         for lv, v in zip(lvs, problem.vehicles()):
             ac, _ = linear_model(v)  # continuous: f(x, 0) = A x
             for row in np.atleast_2d(np.asarray(ac, float)):
@@ -215,7 +215,7 @@ class ExactMilp(Backend):
         return low, low
 
     def _limit(self, problem: PlanningProblem) -> float:
-        t = problem.mission.options.get("time_limit")
+        t = problem.time_limit
         if t is None:
             t = self.time_limit if self.time_limit is not None else TIME_LIMIT_S
         return float(min(float(t), max(deadline.solve_remaining(), 0.01)))

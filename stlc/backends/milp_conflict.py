@@ -56,7 +56,7 @@ def exact_model(problem) -> bool:
     exact on it): the proof may use the vehicles' own discrete dynamics, not a relaxation."""
     from stlc.backends.milp_backend import linear_model
 
-    return (str(problem.mission.options.get("integrator", "rk4")) == "rk4"
+    return (problem.integrator == "rk4"
             and all(linear_model(v) is not None for v in problem.vehicles()))
 
 

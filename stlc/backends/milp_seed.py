@@ -117,13 +117,13 @@ class _Box:
 
 def _lins(problem, h: float):
     """Each vehicle as a double integrator on the seed grid (step h), inner bounds."""
-    hold = problem.mission.options.get("end", "hover") != "free"
+    hold = problem.hold_end
 
     def lins(v):
         vm = vehicles.model_of(v)
         vmax, amax = vm.kinematic_limits(v)
         sc = vm.state_channels(v)
-        x0 = np.asarray(problem.start_states.get(v.name, vm.initial_state(v)), float)
+        x0 = np.asarray(problem.start_state(v.name), float)
         pos, vel = sc[vm.pos_index()], sc[vm.vel_index()]
         x0 = np.concatenate([x0[vm.pos_index()], x0[vm.vel_index()]])
         eye = np.eye(3)
@@ -310,8 +310,7 @@ class MilpPathSeed(KinematicGuess):
             rec["proof_s"] = time.perf_counter() - t0 - rec.get("total_s", 0.0)
         if proof is None:  # the kinematic NLP, from the seed path when there is one
             t1 = time.perf_counter()
-            paths = schedule.kinematic_guess(problem.program, problem.mission, problem.grid,
-                                             problem.requirement, start=paths)
+            paths = schedule.kinematic_guess(problem, path=paths)
             rec["kinematic_s"] = time.perf_counter() - t1
             if "robustness" not in rec:
                 rec["fallback"] = "kinematic guess"

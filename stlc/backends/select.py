@@ -41,8 +41,10 @@ class Chain:
 
 
 def names() -> list[str]:
-    """Every name ``--backend`` accepts: the chains, then the registry's backends."""
-    return list(CHAINS) + [n for n in registry() if n not in CHAINS]
+    """Every name ``--backend`` accepts: the chains, then the registry's backends that are
+    members of a chain (the replanning backends are not chosen by ``--backend``)."""
+    members = {n for c in CHAINS.values() for n in c}
+    return list(CHAINS) + [n for n in registry() if n not in CHAINS and n in members]
 
 
 def _instances(chain: str, quiet: bool) -> list:
