@@ -186,36 +186,44 @@ def _run_verified(problem, chain):
     return sol
 
 
-NEXT_CHOICES = 2  #: further MILP seeds tried when the NLP's plan from a seed misses κ
+NEXT_CHOICES = 2  #: further seeds tried when the NLP's plan from a MILP seed misses κ
 
 
 def _next_choices(problem, chain, sol, quiet: bool):
-    """The NLP planned from a MILP seed missed κ: plan again from the next-best discrete
-    choice (the seed with a no-good cut on its choices for the violated conjuncts), at most
-    ``NEXT_CHOICES`` times and within the time limit; the verified plan with the larger
-    exact robustness is kept, and the record lists every try."""
+    """The NLP planned from a MILP seed missed κ: plan again from other seeds — the local
+    kinematic guess (the seed of the `kinematic` chain: a class the MILP's coarse, relaxed
+    path did not choose), then the next-best discrete choice (the MILP seed with a no-good
+    cut on its choices for the conjuncts the plan violates) — at most ``NEXT_CHOICES`` and
+    within the time limit; the verified plan with the larger exact robustness is kept, and
+    the record lists every try."""
+    from stlc.backends.casadi_backend import KinematicGuess
     from stlc.backends.select import Chain
 
     seed = chain.backends[0] if chain.backends else None
+    if sol.status in ("satisfied", "infeasible") or not hasattr(seed, "next_seed"):
+        return sol
+    others = []
+    if seed.choices:  # the MILP chose the first path: the local guess is another class
+        others.append(("the kinematic guess", KinematicGuess()))
+    nxt = seed.next_seed(problem, sol.channels)
+    if nxt is not None:
+        others.append(("the next-best MILP seed (its choices for the violated specs "
+                       "excluded)", nxt))
     tries = []
-    for _ in range(NEXT_CHOICES):
-        if sol.status in ("satisfied", "infeasible") or deadline.solve_expired() \
-                or not hasattr(seed, "next_seed"):
-            break
-        seed = seed.next_seed(problem, sol.channels)
-        if seed is None:
+    for label, other_seed in others[:NEXT_CHOICES]:
+        if sol.status == "satisfied" or deadline.solve_expired():
             break
         if not quiet:
             print(f"{problem.mission.name}: exact robustness {sol.robustness_exact:+.4f} < κ; "
-                  "planning again from the next-best MILP seed (its choices for the violated "
-                  "specs excluded)", file=sys.stderr)
-        other = _run_verified(problem, Chain(chain.name, [seed, *chain.backends[1:]],
+                  f"planning again from {label}", file=sys.stderr)
+        other = _run_verified(problem, Chain(chain.name, [other_seed, *chain.backends[1:]],
                                              chain.forced))
-        tries.append({"exact": other.robustness_exact, "status": str(other.status)})
+        tries.append({"seed": label, "exact": other.robustness_exact,
+                      "status": str(other.status)})
         a, b = sol.robustness_exact, other.robustness_exact
         if b == b and not (a == a and a >= b):
-            other.notes.append(f"planned from the next-best MILP seed (try {len(tries) + 1}): "
-                               f"the first seed's plan had exact robustness {a:.6g}")
+            other.notes.append(f"planned from {label}: the MILP seed's plan had exact "
+                               f"robustness {a:.6g}")
             sol = other
     if tries:
         sol.solver["chain"]["next_choices"] = tries

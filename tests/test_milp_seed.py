@@ -152,22 +152,22 @@ def test_the_next_seed_leaves_out_the_choices_of_the_violated_spec(tmp_path):
     assert len(third.exclude) == 2
 
 
-def test_a_plan_that_misses_kappa_is_planned_again_from_the_next_seed(tmp_path, monkeypatch):
-    # the NLP's plan is replaced by a hover (violated): the pipeline tries the next seeds,
-    # at most NEXT_CHOICES times, and records each try
+def test_a_plan_that_misses_kappa_is_planned_again_from_other_seeds(tmp_path, monkeypatch):
+    # the NLP's plan is replaced by a hover (violated): the pipeline tries the kinematic
+    # guess, then the next MILP seed (NEXT_CHOICES in all), and records each try
     from stlc.backends.casadi_backend import CasadiNlp
     from stlc.planning.fallback import hover_solution
 
     calls = []
 
     def hovering(self, raw, inv, problem):
-        calls.append(problem.seed.solver["seed"]["excluded"])
+        calls.append(problem.seed.solver.get("seed", {}).get("excluded", "kinematic"))
         return hover_solution(problem, "test")
 
     monkeypatch.setattr(CasadiNlp, "solve", lambda self, lowered, problem: None)
     monkeypatch.setattr(CasadiNlp, "invert", hovering)
     program, mission = _problem(TRAP, tmp_path, "trap")
     _, sol = pipeline.plan(program, mission, backend="nlp")
-    assert calls == [0, 1, 2]  # the first seed, then two with more cuts
+    assert calls == [0, "kinematic", 1]  # the MILP seed, the local guess, one cut
     assert len(sol.solver["chain"]["next_choices"]) == pipeline.NEXT_CHOICES
     assert sol.status == "violated"

@@ -35,6 +35,8 @@ from stlc.semantics import ir
 TIME_LIMIT_S = 60.0  #: default wall-time limit of one MILP solve (a mission may set its own); an
 #: unconverged unforced solve then falls back to the `nlp` chain (``pipeline._fallback``)
 
+KAPPA_MARGIN = 1e-6  #: the feasibility phase asks ρ̂ ≥ κ + this
+
 HIGHS_STATUS_MAP = {
     "Optimal": SolverStatus.OPTIMAL,
     "Time limit reached": SolverStatus.MAX_TIME,
@@ -242,7 +244,10 @@ class ExactMilp(Backend):
             return Highs(low.milp, {}, time_limit=limit).solve()
         t0 = time.perf_counter()
         h = Highs(low.milp, {}, time_limit=limit)
-        kappa_lo = max(low.milp.lo[low.top], problem.threshold)
+        # κ plus a margin above the monitor's rounding (MILP and monitor agree to ~1e-9): a
+        # plan at exactly κ could be judged a hair below it (seen on the 60 s patrol)
+        kappa_lo = min(max(low.milp.lo[low.top], problem.threshold + KAPPA_MARGIN),
+                       low.milp.hi[low.top])
         h.set_col_bounds(low.top, kappa_lo, low.milp.hi[low.top])
         first = h.solve()
         self.phases = [("feasibility", first.status, first.wall_s)]
