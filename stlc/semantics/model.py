@@ -150,11 +150,24 @@ class Failure:
 
 
 @dataclass(frozen=True, slots=True)
+class HumanMove:
+    """``move operator { time = 8 s; pos = (...) m; att = (...) deg }``: the human's pose
+    becomes ``pos`` (m) / ``att`` (rad) at ``time`` (paper A §6); None keeps that part."""
+
+    human: str
+    time: float
+    pos: tuple[float, float, float] | None = None
+    att: tuple[float, float, float] | None = None
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
 class SimulateConfig:
     """A mission's ``simulate { ... }`` block: the events of ``stlc simulate``."""
 
     disturbances: tuple[Disturbance, ...] = ()
     failures: tuple[Failure, ...] = ()
+    moves: tuple[HumanMove, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
