@@ -35,11 +35,14 @@ NO_SPAN = Span.none()
 @dataclass(frozen=True, slots=True)
 class Box:
     """Axis-aligned box ``lo <= p <= hi``; ``frame`` names a human when the box is in that
-    human's frame (else world frame)."""
+    human's frame (else world frame).  ``placed`` names a world box whose centre is a
+    parameter of the formulas (``Param`` leaves ``<placed>.center.{x,y,z}``, set with
+    ``--set``; ``lo``/``hi`` are its current corners)."""
 
     lo: Vec3
     hi: Vec3
     frame: str | None = None
+    placed: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

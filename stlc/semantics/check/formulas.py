@@ -32,6 +32,7 @@ from stlc.semantics.check.values import (
     Value,
     VehicleV,
     add,
+    box_faces,
     broadcast,
     const,
     finite_expr,
@@ -353,9 +354,11 @@ def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span)
         p = world_to_frame(p, box.frame)
     preds = []
     for k, axis in enumerate("xyz"):
-        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span))
-        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span))
+        lo, hi = box_faces(box, k)
+        preds.append(ir.Pred(sub(p[k], lo), f"{label} ({axis} >= lo)", span))
+        preds.append(ir.Pred(sub(hi, p[k]), f"{label} ({axis} <= hi)", span))
     return ir.And(tuple(preds), span)
+
 
 
 def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
