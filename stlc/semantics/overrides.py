@@ -121,6 +121,16 @@ def resolve(path: str, tree: ast.File, program: model.Program, const_dims: dict,
             m = _START.match(name) or _POSE.match(name)
             if m and m.group(1) in program.vehicles and m.group(2) == "att":
                 why = " (a point mass has no attitude)"
+            reg = program.scenario.region(name.split(".")[0])
+            if reg is not None and reg.span.known:
+                where = reg.span
+            if reg is not None and f"{reg.name}.center.x" in names and not name.startswith(
+                    f"{reg.name}.center."):
+                hint = f"a region is placed by its centre: `{reg.name}.center.x` (.y, .z)"
+            elif reg is not None and f"{reg.name}.center.x" not in names:
+                why = (" (the workspace is not placeable)" if reg.kind == "workspace" else
+                       f" (a region of `{reg.box.frame}` moves with it: set "
+                       f"`{reg.box.frame}.pos.x`)" if reg.box.frame else "")
             diags.append(Diagnostic("STL101", f"--set {name}: no constant, human pose field, "
                                     f"vehicle start or region centre called `{name}`{why}",
                                     where, hint))
