@@ -157,7 +157,8 @@ class CasadiNlp(Backend):
         if not self.quiet:
             print(f"  initial guess: {guess_s:.2f} s", file=sys.stderr)
         raw = schedule.solve_mission(problem.program, problem.mission, lowered.prob,
-                                     lowered.inv, w0, self.quiet)
+                                     lowered.inv, w0, self.quiet,
+                                     warm=library.is_library_seed(problem.seed))
         return raw, lowered.prob, guess_s, lowered.build_s
 
     def invert(self, raw_all, inv, problem: PlanningProblem) -> Solution:

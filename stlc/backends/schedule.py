@@ -230,7 +230,11 @@ def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
 
 
 def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
-                  inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
+                  inv: InverseData, w0: np.ndarray, quiet: bool = True,
+                  warm: bool = False) -> RawResult:
+    """The schedule below.  ``warm``: ``w0`` is a solved plan of a neighbouring instance (a
+    sweep's plan library): with energy terms, the final stage runs first, straight from it
+    (``_warm_energy``); only if that plan misses κ does the whole schedule follow."""
     from stlc.analysis import smooth
 
     deadline.disarm()  # from here every solve and stage checks the time limit itself
@@ -265,6 +269,10 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
                   f"exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
         return st
 
+    if warm and (obj.energy_weight > 0 or obj.forward_weight > 0):
+        done = _warm_energy(prob, inv, w0, params, mission, record)
+        if done is not None:  # (no robust plan was solved: no `compare` plans either)
+            return RawResult(done[0], done[1], stages)
     # 1. robustness: maximise ρ̃ of the planner form P_κ (margins relative to κ, in units
     #    of each predicate's own scale) until IPOPT converges; raise λ while the exact
     #    monitor says ρ < κ
@@ -303,27 +311,10 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         #    constraint (−ρ̃ in the objective already keeps the plan away from ρ̃ < 0, and IPOPT
         #    converges; with it active, the Hessian needs heavy regularisation), then, only if
         #    the exact monitor finds ρ < κ, with ρ̃(P_κ) ≥ PLAN_MARGIN from the robust plan
-        lam_e = lam
-        while lam_e * LAM_FACTOR <= LAM_MAX and \
-                _planner_smooth(prob, inv, best, params, lam_e) < PLAN_MARGIN:
-            lam_e *= LAM_FACTOR
-        p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
-        if inv.choice_nodes:  # keep the robust plan's branch of every disjunction
-            inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(best, inv),
-                                               params, inv.grid.n, inv.planned, inv.grid.dt)
-        w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
-                                     f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
-                                     most_robust=False)
-        st = record("energy", lam_e, w_e, stats, f_, dt_)
-        if st.exact < kappa and not deadline.solve_expired():
-            w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e,
-                                         PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
-                                         STAGE_ITER, PATIENCE, most_robust=False)
-            st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
+        lam_e = _energy_lambda(prob, inv, best, params, lam)
+        w_e, st = _energy(prob, inv, best, params, obj, kappa, lam_e, record)
         if st.exact >= kappa:
             result.w, result.lam = w_e, lam_e
-        inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
-            if inv.choice_nodes else {}
     for name, variant in mission.options.get("compare", []):
         if variant is None or deadline.solve_expired():
             continue
@@ -337,3 +328,49 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
         record(f"compare {name}", lam, w_c, stats, f_, dt_)
         result.comparisons[name] = w_c
     return result
+
+
+def _energy_lambda(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict,
+                   lam: float) -> float:
+    """The smallest λ of the schedule (from ``lam``) at which ``w`` has ρ̃(P_κ) ≥
+    PLAN_MARGIN (the largest one if none)."""
+    while lam * LAM_FACTOR <= LAM_MAX and \
+            _planner_smooth(prob, inv, w, params, lam) < PLAN_MARGIN:
+        lam *= LAM_FACTOR
+    return lam
+
+
+def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj, kappa: float,
+            lam_e: float, record) -> tuple[np.ndarray, Stage]:
+    """Paper A eq. 6 from the plan ``w`` at λ = ``lam_e``, keeping ``w``'s branch of every
+    disjunction: unconstrained first, with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ."""
+    p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
+    if inv.choice_nodes:
+        inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
+                                           params, inv.grid.n, inv.planned, inv.grid.dt)
+    w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e, None,
+                                 f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE, most_robust=False)
+    st = record("energy", lam_e, w_e, stats, f_, dt_)
+    if st.exact < kappa and not deadline.solve_expired():
+        w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e,
+                                     PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
+                                     STAGE_ITER, PATIENCE, most_robust=False)
+        st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
+    inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
+        if inv.choice_nodes else {}
+    return w_e, st
+
+
+def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dict, mission,
+                 record) -> tuple[np.ndarray, float] | None:
+    """A neighbour's final plan is already near this instance's: its energy stage, first.
+    λ is the smallest of the schedule where ``w0`` clears PLAN_MARGIN, else one step above
+    the mission's (where a neighbour's robust plan usually stands).  (plan, λ), or None
+    (the whole schedule follows, from ``w0``) when it misses κ: the exact monitor decides."""
+    lam = mission.smoothing.lam
+    lam_e = _energy_lambda(prob, inv, w0, params, lam)
+    if _planner_smooth(prob, inv, w0, params, lam_e) < PLAN_MARGIN:
+        lam_e = min(lam * LAM_FACTOR, LAM_MAX)
+    w_e, st = _energy(prob, inv, w0, params, mission.objective, mission.threshold, lam_e,
+                      record)
+    return (w_e, lam_e) if st.exact >= mission.threshold else None
