@@ -196,3 +196,29 @@ def test_set_region_centre_one_build(tmp_path):
             monitor.robustness(f, 0.2, s.channels, lo.program.params), abs=1e-12)
         assert s.status == "satisfied"
     assert nlp_cache.STATS["builds"] - b0 == 1
+
+
+def test_library_warm_start_runs_the_energy_stage_first(tmp_path):
+    """A plan-library seed (a neighbouring instance's plan) skips the robustness stages: the
+    energy stage starts from it; the verdict is still the exact monitor's at the instance's
+    own pose, and the plan starts at the instance's own start."""
+    from stlc.backends.library import LibrarySeed
+    from stlc.pipeline import backend_chain
+    from stlc.planning.problem import from_mission
+
+    path = write(tmp_path, SOURCE.replace("minimize -robustness",
+                                          "minimize 0.5 * energy - robustness"))
+    lo = load(path, ["op.pos.y=0.1 m"])
+    _, a = plan(lo.program, lo.program.missions["m"], values=lo.values, backend="casadi")
+    assert a.status == "satisfied"
+    assert [s["label"] for s in a.solver["stages"]][0].startswith("robustness")
+    lo2 = load(path, ["op.pos.y=-0.05 m", "p.start.pos.x=0.1 m"])
+    m2 = lo2.program.missions["m"]
+    chain = backend_chain(from_mission(lo2.program, m2, values=lo2.values))
+    _, b = plan(lo2.program, m2, values=lo2.values,
+                chain=[LibrarySeed(a.channels, "a", 0.1), chain[-1]])
+    labels = [s["label"] for s in b.solver["stages"]]
+    assert labels and all(x.startswith("energy") for x in labels), labels
+    assert b.status == "satisfied" and b.channels["p.pos.x"][0] == pytest.approx(0.1)
+    assert b.robustness_exact == pytest.approx(
+        monitor.robustness(m2.requirement, 0.2, b.channels, lo2.program.params), abs=1e-12)
