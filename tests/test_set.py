@@ -222,3 +222,17 @@ def test_library_warm_start_runs_the_energy_stage_first(tmp_path):
     assert b.status == "satisfied" and b.channels["p.pos.x"][0] == pytest.approx(0.1)
     assert b.robustness_exact == pytest.approx(
         monitor.robustness(m2.requirement, 0.2, b.channels, lo2.program.params), abs=1e-12)
+
+
+def test_library_picks_the_most_robust_of_the_nearest():
+    """``PlanLibrary.nearest`` with a score: the best-scored of the k nearest, ties to the
+    nearer; without one, the nearest."""
+    from stlc.backends.library import PlanLibrary
+
+    lib = PlanLibrary()
+    for y, rho in ((0.0, 0.1), (1.0, 0.5), (2.0, 0.9), (9.0, 5.0), (10.0, 0.0)):
+        lib.add({"y": y}, {"rho": np.array([rho])}, str(y))
+    assert lib.nearest({"y": 0.9})[1] == "1.0"
+    score = lambda ch: float(ch["rho"][0])  # noqa: E731
+    assert lib.nearest({"y": 0.9}, score, k=3)[1] == "2.0"  # 9.0 is not among the 3 nearest
+    assert lib.nearest({"y": 0.9}, lambda ch: 0.0, k=3)[1] == "1.0"
