@@ -71,8 +71,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
     key = (mission, "")
     lib = None
     if isinstance(chain[-1], CasadiNlp):
-        integrator = str(m.options.get("integrator", "rk4"))
-        key = (mission, structure_key(program, m, problem.grid, integrator))
+        key = (mission, structure_key(problem))
         lib = _LIBRARIES.setdefault(key, PlanLibrary())
         # of the 4 nearest solved plans, the most robust at this instance's own values
         near = lib.nearest(vals, _scorer(program, m, problem.grid.dt)) if warm else None
