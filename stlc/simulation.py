@@ -61,6 +61,16 @@ def simulation_events(path: str, program: model.Program, m: model.Mission,
     return dist, fails
 
 
+def _file_move(program: model.Program, mv: model.HumanMove):
+    """A checked ``move`` block as the flight loop's ``Move``: a part it does not give is
+    the human's pose in the program (after ``--set``)."""
+    from stlc.replan.move import Move
+
+    h = next(x for x in program.scenario.humans if x.name == mv.human)
+    pos = mv.pos if mv.pos is not None else tuple(float(x) for x in h.pos)
+    return Move(mv.human, mv.time, pos, mv.att)  # type: ignore[arg-type]
+
+
 def _check_kept(program: model.Program, m: model.Mission, cfg: model.ReplanConfig) -> None:
     """Before any solve: can a replanning segment keep the specs of ``keep = [...]``?"""
     from stlc.planning.problem import from_mission
@@ -114,10 +124,13 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "which to simulate", Span(path, 1, 1, 1, 2),
                                     "pass --mission " + " | ".join(x.name for x in missions))])
     m = missions[0]
-    if moves:  # an operator move (paper A §6): replan.move, not disturbances
+    if not (moves or disturbances or failures) and m.simulate and m.simulate.moves:
+        moves = [_file_move(program, mv) for mv in m.simulate.moves]  # checked with the file
+    elif moves:  # an operator move (paper A §6): replan.move, not disturbances
         from stlc.replan.move import check_moves
 
         check_moves(path, program, m, moves)
+    if moves:
         dist, fails = [], []
     else:
         dist, fails = simulation_events(path, program, m, disturbances, failures)

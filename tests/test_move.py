@@ -130,3 +130,36 @@ def test_library_warm_start(tmp_path):
     rho = monitor.robustness(moved.missions["m"].requirement, 0.2, res.executed, moved.params)
     assert rho == pytest.approx(res.executed_robustness["mission"], abs=1e-12)
     assert ev.accepted == (rho >= 0)
+
+
+def test_move_block_in_the_file(tmp_path):
+    """`move op { ... }` in the mission's `simulate` block is the same event as --move: the
+    plan is replanned and the flown trajectory satisfies the mission at the new pose."""
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE.replace("  minimize -robustness\n", "  minimize -robustness\n"
+                                "  simulate {\n    move op { time = 0.6 s; pos = (1.5, -1.2, 0) m }"
+                                "\n  }\n"))
+    r = subprocess.run([sys.executable, "-m", "stlc", "simulate", str(f), "-o",
+                        str(tmp_path / "o"), "-q"], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    ev = json.loads((tmp_path / "o" / "replan.json").read_text())["events"][0]
+    assert ev["kind"] == "move" and ev["time"] == pytest.approx(0.6)
+    assert ev["detail"]["pos"] == [1.5, -1.2, 0.0] and ev["detail"]["decision"] == "replan"
+    prog = load(str(f), ["op.pos.y=-1.2 m"]).program
+    flown = read_trace(str(tmp_path / "o" / "executed.csv"))
+    assert monitor.robustness(prog.missions["m"].requirement, 0.2, flown.channels,
+                              prog.params) >= 0
+
+
+def test_move_block_keeps_what_it_does_not_give(tmp_path):
+    """A block with `att` only keeps the human's position — the one after --set."""
+    from stlc.simulation import _file_move
+
+    text = SOURCE.replace("  minimize -robustness\n", "  minimize -robustness\n  simulate {\n"
+                          "    move op { time = 1 s; att = (0, 0, 90) deg }\n  }\n")
+    for sets, x in (((), 1.5), (("op.pos.x=1.25 m",), 1.25)):
+        (tmp_path / "m.stl").write_text(text)
+        prog = load(str(tmp_path / "m.stl"), list(sets)).program
+        mv = _file_move(prog, prog.missions["m"].simulate.moves[0])
+        assert mv.pos == (x, 0.0, 0.0) and mv.time == 1.0
+        assert mv.att == pytest.approx((0.0, 0.0, np.pi / 2))

@@ -127,3 +127,112 @@ def test_set_equals_edited_file_one_build(tmp_path):
         f = pr.missions["m"].requirement
         assert s.robustness_exact == pytest.approx(
             monitor.robustness(f, 0.2, s.channels, pr.params), abs=1e-12)
+
+
+WALL = """\
+vehicle p : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (2, 2, 2) m/s^2
+  start { pos = (0, 0, 0) m }
+}
+scenario {
+  workspace = box((-3, -3, -1), (3, 3, 1)) m
+  obstacle wall = box((0.6, -0.4, -1), (0.9, 0.4, 1)) m
+  region goal = box((1.4, -0.3, -0.3), (2.0, 0.3, 0.3)) m
+}
+mission m {
+  vehicles = [p]
+  horizon = 4 s
+  step = 0.2 s
+  spec avoid = always (p.pos not in wall and p.pos in workspace)
+  spec reach = eventually[2, 3] always[0, 0.4] (p.pos in goal)
+  require avoid and reach
+  minimize -robustness
+}
+"""
+
+
+def test_set_region_centre(tmp_path):
+    """--set 'wall.center.y=...' moves the obstacle (size kept): the instance's program has
+    the moved box, its formulas read the centre as a parameter — the exact monitor gives
+    the edited file's robustness on any trace — and a compile equals the edited file's."""
+    path = write(tmp_path, WALL)
+    edited = write(tmp_path, WALL.replace("box((0.6, -0.4, -1), (0.9, 0.4, 1))",
+                                          "box((0.6, -0.1, -1), (0.9, 0.7, 1))"), "e.stl")
+    lo = load(path, ["wall.center.y=0.3 m"])
+    pr, pe = lo.program, load(edited).program
+    wall = pr.scenario.region("wall")
+    assert wall.box.lo == pytest.approx((0.6, -0.1, -1)) and wall.box.hi == pytest.approx(
+        (0.9, 0.7, 1)) and pr.params["wall.center.y"] == 0.3
+    rng = np.random.default_rng(1)  # random traces through and around the wall
+    for _ in range(20):
+        ch = {f"p.pos.{a}": rng.uniform(-1.5, 2.5, 21) for a in "xyz"}
+        assert monitor.robustness(pr.missions["m"].requirement, 0.2, ch, pr.params) == \
+            pytest.approx(monitor.robustness(pe.missions["m"].requirement, 0.2, ch, pe.params),
+                          abs=1e-12)
+    _, a = plan(pr, pr.missions["m"], values=lo.values)
+    _, b = plan(pe, pe.missions["m"])
+    assert a.status == b.status == "satisfied"
+    assert a.robustness_exact == pytest.approx(b.robustness_exact, abs=1e-9)
+    with pytest.raises(StlcError) as e:  # the workspace is not placeable; a length is needed
+        load(path, ["workspace.center.x=1 m"])
+    assert codes(e.value) == ["STL101"]
+    with pytest.raises(StlcError) as e:
+        load(path, ["wall.center.x=1 deg"])
+    assert codes(e.value) == ["STL204"]
+
+
+def test_set_region_centre_one_build(tmp_path):
+    """On the NLP, the centre is a parameter: two placements share one build, and each
+    plan's verdict is the exact monitor's at its own placement."""
+    nlp_cache.clear()
+    path = write(tmp_path, WALL)
+    b0 = nlp_cache.STATS["builds"]
+    for y in (0.3, -0.35):
+        lo = load(path, [f"wall.center.y={y} m"])
+        _, s = plan(lo.program, lo.program.missions["m"], values=lo.values, backend="casadi")
+        f = lo.program.missions["m"].requirement
+        assert s.robustness_exact == pytest.approx(
+            monitor.robustness(f, 0.2, s.channels, lo.program.params), abs=1e-12)
+        assert s.status == "satisfied"
+    assert nlp_cache.STATS["builds"] - b0 == 1
+
+
+def test_library_warm_start_runs_the_energy_stage_first(tmp_path):
+    """A plan-library seed (a neighbouring instance's plan) skips the robustness stages: the
+    energy stage starts from it; the verdict is still the exact monitor's at the instance's
+    own pose, and the plan starts at the instance's own start."""
+    from stlc.backends.library import LibrarySeed
+    from stlc.pipeline import backend_chain
+    from stlc.planning.problem import from_mission
+
+    path = write(tmp_path, SOURCE.replace("minimize -robustness",
+                                          "minimize 0.5 * energy - robustness"))
+    lo = load(path, ["op.pos.y=0.1 m"])
+    _, a = plan(lo.program, lo.program.missions["m"], values=lo.values, backend="casadi")
+    assert a.status == "satisfied"
+    assert [s["label"] for s in a.solver["stages"]][0].startswith("robustness")
+    lo2 = load(path, ["op.pos.y=-0.05 m", "p.start.pos.x=0.1 m"])
+    m2 = lo2.program.missions["m"]
+    chain = backend_chain(from_mission(lo2.program, m2, values=lo2.values))
+    _, b = plan(lo2.program, m2, values=lo2.values,
+                chain=[LibrarySeed(a.channels, "a", 0.1), chain[-1]])
+    labels = [s["label"] for s in b.solver["stages"]]
+    assert labels and all(x.startswith("energy") for x in labels), labels
+    assert b.status == "satisfied" and b.channels["p.pos.x"][0] == pytest.approx(0.1)
+    assert b.robustness_exact == pytest.approx(
+        monitor.robustness(m2.requirement, 0.2, b.channels, lo2.program.params), abs=1e-12)
+
+
+def test_library_picks_the_most_robust_of_the_nearest():
+    """``PlanLibrary.nearest`` with a score: the best-scored of the k nearest, ties to the
+    nearer; without one, the nearest."""
+    from stlc.backends.library import PlanLibrary
+
+    lib = PlanLibrary()
+    for y, rho in ((0.0, 0.1), (1.0, 0.5), (2.0, 0.9), (9.0, 5.0), (10.0, 0.0)):
+        lib.add({"y": y}, {"rho": np.array([rho])}, str(y))
+    assert lib.nearest({"y": 0.9})[1] == "1.0"
+    score = lambda ch: float(ch["rho"][0])  # noqa: E731
+    assert lib.nearest({"y": 0.9}, score, k=3)[1] == "2.0"  # 9.0 is not among the 3 nearest
+    assert lib.nearest({"y": 0.9}, lambda ch: 0.0, k=3)[1] == "1.0"

@@ -152,7 +152,8 @@ class CasadiNlp(Backend):
         guess_s = time.perf_counter() - t0 + problem.seed.timing.get("guess_s", 0.0)
         if not self.quiet:
             print(f"  initial guess: {guess_s:.2f} s", file=sys.stderr)
-        raw = schedule.solve_mission(problem, lowered.prob, lowered.inv, w0, self.quiet)
+        raw = schedule.solve_mission(problem, lowered.prob, lowered.inv, w0, self.quiet,
+                                     warm=library.is_library_seed(problem.seed))
         return raw, lowered.prob, guess_s, lowered.build_s
 
     def invert(self, raw_all, inv, problem: PlanningProblem) -> Solution:

@@ -36,20 +36,31 @@ class PlanLibrary:
             label: str = "") -> None:
         self.entries.append((dict(values), channels, label))
 
-    def nearest(self, values: dict[str, float]
+    def nearest(self, values: dict[str, float], score=None, k: int = 4
                 ) -> tuple[dict[str, np.ndarray], str, float] | None:
+        """The nearest plan; with ``score`` (channels → a number, e.g. the plan's exact
+        robustness at this instance's values), the best-scored of the ``k`` nearest."""
         if not self.entries:
             return None
+        if score is not None and len(self.entries) > 1:
+            d = self._distances(values)
+            near = np.argsort(d, kind="stable")[:k]
+            i = max(near, key=lambda j: (score(self.entries[j][1]), -d[j]))
+            return self.entries[i][1], self.entries[i][2], float(d[i])
+        d = self._distances(values)
+        i = int(np.argmin(d))
+        return self.entries[i][1], self.entries[i][2], float(d[i])
+
+    def _distances(self, values: dict[str, float]) -> np.ndarray:
+        """Scaled Euclidean distance of every entry to ``values`` (each axis by its range)."""
         names = sorted(values)
         pts = np.array([[e[0].get(k, np.nan) for k in names] for e in self.entries])
         if pts.size == 0:
-            return self.entries[-1][1], self.entries[-1][2], 0.0
+            return np.zeros(len(self.entries))
         x = np.array([values[k] for k in names])
         span = np.nanmax(np.vstack([pts, x]), axis=0) - np.nanmin(np.vstack([pts, x]), axis=0)
         span[~(span > 0)] = 1.0
-        d = np.sqrt(np.nansum(((pts - x) / span) ** 2, axis=1))
-        i = int(np.argmin(d))
-        return self.entries[i][1], self.entries[i][2], float(d[i])
+        return np.sqrt(np.nansum(((pts - x) / span) ** 2, axis=1))
 
 
 class LibrarySeed(Backend):

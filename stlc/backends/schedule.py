@@ -310,9 +310,10 @@ def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
 
 
 def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
-                  w0: np.ndarray, quiet: bool = True) -> RawResult:
+                  w0: np.ndarray, quiet: bool = True, warm: bool = False) -> RawResult:
     """The λ/energy schedule (module doc) on the built NLP, with the problem's objective,
-    threshold, smoothing and comparison variants."""
+    threshold, smoothing and comparison variants; ``warm``: ``w0`` is a neighbour's solved
+    plan (a sweep's library), see ``_warm_energy``."""
     from stlc.analysis import smooth
 
     deadline.disarm()  # from here every solve and stage checks the time limit itself
@@ -347,6 +348,10 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
                   f"exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
         return st
 
+    if warm and (obj.energy_weight > 0 or obj.forward_weight > 0):
+        done = _warm_energy(prob, inv, w0, params, problem, record)
+        if done is not None:  # (no robust plan was solved: no `compare` plans either)
+            return RawResult(done[0], done[1], stages)
     # 1. robustness: maximise ρ̃ of the planner form P_κ (margins relative to κ, in units
     #    of each predicate's own scale) until IPOPT converges; raise λ while the exact
     #    monitor says ρ < κ
@@ -385,27 +390,10 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         #    constraint (−ρ̃ in the objective already keeps the plan away from ρ̃ < 0, and IPOPT
         #    converges; with it active, the Hessian needs heavy regularisation), then, only if
         #    the exact monitor finds ρ < κ, with ρ̃(P_κ) ≥ PLAN_MARGIN from the robust plan
-        lam_e = lam
-        while lam_e * LAM_FACTOR <= LAM_MAX and \
-                _planner_smooth(prob, inv, best, params, lam_e) < PLAN_MARGIN:
-            lam_e *= LAM_FACTOR
-        p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
-        if inv.choice_nodes:  # keep the robust plan's branch of every disjunction
-            inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(best, inv),
-                                               params, inv.grid.n, inv.planned, inv.grid.dt)
-        w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e, None,
-                                     f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE,
-                                     most_robust=False)
-        st = record("energy", lam_e, w_e, stats, f_, dt_)
-        if st.exact < kappa and not deadline.solve_expired():
-            w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, best, params, lam_e), p_e,
-                                         PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
-                                         STAGE_ITER, PATIENCE, most_robust=False)
-            st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
+        lam_e = _energy_lambda(prob, inv, best, params, lam)
+        w_e, st = _energy(prob, inv, best, params, obj, kappa, lam_e, record)
         if st.exact >= kappa:
             result.w, result.lam = w_e, lam_e
-        inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
-            if inv.choice_nodes else {}
     for name, variant in problem.comparisons:
         if variant is None or deadline.solve_expired():
             continue
@@ -419,3 +407,44 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         record(f"compare {name}", lam, w_c, stats, f_, dt_)
         result.comparisons[name] = w_c
     return result
+
+
+def _energy_lambda(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict,
+                   lam: float) -> float:
+    """The smallest λ of the schedule from ``lam`` where ``w`` has ρ̃(P_κ) ≥ PLAN_MARGIN."""
+    while lam * LAM_FACTOR <= LAM_MAX and \
+            _planner_smooth(prob, inv, w, params, lam) < PLAN_MARGIN:
+        lam *= LAM_FACTOR
+    return lam
+
+
+def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj, kappa: float,
+            lam_e: float, record) -> tuple[np.ndarray, Stage]:
+    """Paper A eq. 6 from ``w`` at λ = ``lam_e`` with ``w``'s branches: unconstrained, then
+    with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ."""
+    p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
+    if inv.choice_nodes:
+        inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
+                                           params, inv.grid.n, inv.planned, inv.grid.dt)
+    w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e, None,
+                                 f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE, most_robust=False)
+    st = record("energy", lam_e, w_e, stats, f_, dt_)
+    if st.exact < kappa and not deadline.solve_expired():
+        w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e,
+                                     PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
+                                     STAGE_ITER, PATIENCE, most_robust=False)
+        st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
+    inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) if inv.choice_nodes else {}
+    return w_e, st
+
+
+def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dict, problem,
+                 record) -> tuple[np.ndarray, float] | None:
+    """The energy stage first, from a neighbour's plan (λ: where it clears PLAN_MARGIN, else
+    one step above the mission's); (plan, λ), or None if it misses κ: the schedule follows."""
+    lam = problem.smoothing.lam
+    lam_e = _energy_lambda(prob, inv, w0, params, lam)
+    if _planner_smooth(prob, inv, w0, params, lam_e) < PLAN_MARGIN:
+        lam_e = min(lam * LAM_FACTOR, LAM_MAX)
+    w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record)
+    return (w_e, lam_e) if st.exact >= problem.threshold else None

@@ -21,7 +21,7 @@ FORMULA_WORDS = ("and", "or", "not", "implies", "until", "always", "eventually",
 MEMBER_WORDS = ("require", "minimize", "maximize", "signal")
 DECLARATIONS = ("vehicle", "scenario", "mission", "human", "region", "obstacle", "target",
                 "station", "home", "const", "spec", "risk", "case", "replan", "simulate",
-                "compare", "disturb", "fail", "start", "rotor")
+                "compare", "disturb", "fail", "move", "start", "rotor")
 FUNCTIONS = ("abs", "sqrt", "norm", "dist", "dot", "min", "max", "sin", "cos", "exp", "log",
              "atan2", "angdiff", "box", "diag", "normal", "hexarotor", "quadrotor")
 _UNIT = r"[A-Za-z\u00b0\u00b5][A-Za-z\u00b0\u00b5]*(?:\^-?[0-9]+)?" \

@@ -35,11 +35,14 @@ NO_SPAN = Span.none()
 @dataclass(frozen=True, slots=True)
 class Box:
     """Axis-aligned box ``lo <= p <= hi``; ``frame`` names a human when the box is in that
-    human's frame (else world frame)."""
+    human's frame (else world frame).  ``placed`` names a world box whose centre is a
+    parameter of the formulas (``Param`` leaves ``<placed>.center.{x,y,z}``, set with
+    ``--set``; ``lo``/``hi`` are its current corners)."""
 
     lo: Vec3
     hi: Vec3
     frame: str | None = None
+    placed: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,11 +153,24 @@ class Failure:
 
 
 @dataclass(frozen=True, slots=True)
+class HumanMove:
+    """``move operator { time = 8 s; pos = (...) m; att = (...) deg }``: the human's pose
+    becomes ``pos`` (m) / ``att`` (rad) at ``time`` (paper A §6); None keeps that part."""
+
+    human: str
+    time: float
+    pos: tuple[float, float, float] | None = None
+    att: tuple[float, float, float] | None = None
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
 class SimulateConfig:
     """A mission's ``simulate { ... }`` block: the events of ``stlc simulate``."""
 
     disturbances: tuple[Disturbance, ...] = ()
     failures: tuple[Failure, ...] = ()
+    moves: tuple[HumanMove, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

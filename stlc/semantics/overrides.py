@@ -10,7 +10,13 @@ Settable names (``settable``):
   ``Human`` itself (the report draws it) and the mean of every declared ``normal(...)``
   over that field, moved by the same amount (an uncertainty is *about* the nominal pose);
 * a vehicle's start ``V.start.pos.{x,y,z}`` (and ``V.start.att.{x,y,z}`` for a multirotor):
-  applied to the checked vehicle.
+  applied to the checked vehicle;
+* the placement of a world region ``R.center.{x,y,z}`` (an obstacle, target, station, home
+  or `region`; not the workspace, and not a human's region, which moves with its human): the
+  box keeps its size and moves to the new centre.  The file is checked again with ``R``
+  *placed* — its faces are ``Param`` leaves ``R.center.*`` ∓ the half-size instead of
+  constants (``check.values.box_faces``) — so, like a pose, the centre is an NLP parameter
+  and one build serves every value.
 
 VALUE is written as in the language, a number with its unit (``30 deg``, ``-0.2 m``; a
 const declared without a unit takes a plain number).  Problems are diagnostics: an unknown
@@ -33,12 +39,13 @@ from stlc.semantics.check import units
 _NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)?\s*$")
 _POSE = re.compile(r"([A-Za-z_]\w*)\.(pos|att)\.([xyz])$")
 _START = re.compile(r"([A-Za-z_]\w*)\.start\.(pos|att)\.([xyz])$")
+PLACEABLE = ("obstacle", "region", "target", "station", "home")  # world regions
 
 
 @dataclass(frozen=True, slots=True)
 class Setting:
     """One ``--set``: the name as written, the value text, its SI value, and what it sets
-    (``const`` | ``human`` | ``start``)."""
+    (``const`` | ``human`` | ``start`` | ``region``)."""
 
     name: str
     text: str
@@ -88,6 +95,10 @@ def settable(tree: ast.File, program: model.Program) -> dict[str, tuple[str, Spa
         for f in ("pos", "att") if hasattr(v, "start_att") else ("pos",):
             for a in "xyz":
                 out[f"{v.name}.start.{f}.{a}"] = ("start", v.span)
+    for r in program.scenario.regions:
+        if r.kind in PLACEABLE and r.box.frame is None:
+            for a in "xyz":
+                out[f"{r.name}.center.{a}"] = ("region", r.span)
     return out
 
 
@@ -110,8 +121,19 @@ def resolve(path: str, tree: ast.File, program: model.Program, const_dims: dict,
             m = _START.match(name) or _POSE.match(name)
             if m and m.group(1) in program.vehicles and m.group(2) == "att":
                 why = " (a point mass has no attitude)"
-            diags.append(Diagnostic("STL101", f"--set {name}: no constant, human pose field or "
-                                    f"vehicle start called `{name}`{why}", where, hint))
+            reg = program.scenario.region(name.split(".")[0])
+            if reg is not None and reg.span.known:
+                where = reg.span
+            if reg is not None and f"{reg.name}.center.x" in names and not name.startswith(
+                    f"{reg.name}.center."):
+                hint = f"a region is placed by its centre: `{reg.name}.center.x` (.y, .z)"
+            elif reg is not None and f"{reg.name}.center.x" not in names:
+                why = (" (the workspace is not placeable)" if reg.kind == "workspace" else
+                       f" (a region of `{reg.box.frame}` moves with it: set "
+                       f"`{reg.box.frame}.pos.x`)" if reg.box.frame else "")
+            diags.append(Diagnostic("STL101", f"--set {name}: no constant, human pose field, "
+                                    f"vehicle start or region centre called `{name}`{why}",
+                                    where, hint))
             continue
         if name in seen:
             diags.append(Diagnostic("STL102", f"--set {name} is given twice", where,
@@ -125,7 +147,7 @@ def resolve(path: str, tree: ast.File, program: model.Program, const_dims: dict,
             continue
         value, unit, dim = q
         want = const_dims.get(name) if kind == "const" else (
-            units.ANGLE if ".att." in name else units.LENGTH)
+            units.ANGLE if ".att." in name and kind != "region" else units.LENGTH)
         if dim != want:
             got = "no unit" if dim is None else units.describe(dim)
             need = "a plain number" if want is None else units.describe(want)
@@ -166,13 +188,23 @@ def _moved(d: model.Normal, delta: dict[str, float]) -> model.Normal:
 
 
 def apply_values(program: model.Program, settings: list[Setting]) -> model.Program:
-    """The checked program with the human poses and vehicle starts of ``settings``."""
+    """The checked program with the human poses, vehicle starts and region centres of
+    ``settings`` (a region's centre is a parameter only once checked ``placed``)."""
     poses = {s.name: s.value for s in settings if s.kind == "human"}
     starts = {s.name: s.value for s in settings if s.kind == "start"}
-    if not poses and not starts:
+    centres = {s.name: s.value for s in settings if s.kind == "region"}
+    if not poses and not starts and not centres:
         return program
     delta = {k: v - program.params[k] for k, v in poses.items()}
-    params = {**program.params, **poses}
+    params = {**program.params, **poses, **centres}
+    regions = []
+    for r in program.scenario.regions:
+        if r.box.placed is not None:  # the box moves by its centre's change, size kept
+            d = [params[f"{r.name}.center.{a}"] - (r.box.lo[k] + r.box.hi[k]) / 2
+                 for k, a in enumerate("xyz")]
+            r = replace(r, box=replace(r.box, lo=tuple(x + e for x, e in zip(r.box.lo, d)),
+                                       hi=tuple(x + e for x, e in zip(r.box.hi, d))))
+        regions.append(r)
     humans = []
     for h in program.scenario.humans:
         pos = tuple(params[f"{h.name}.pos.{a}"] for a in "xyz")
@@ -199,7 +231,8 @@ def apply_values(program: model.Program, settings: list[Setting]) -> model.Progr
             m = replace(m, risk=replace(m.risk, cases=cases))
         missions[name] = m
     return replace(program, params=params, vehicles=vehicles, missions=missions,
-                   scenario=replace(program.scenario, humans=tuple(humans)))
+                   scenario=replace(program.scenario, humans=tuple(humans),
+                                    regions=tuple(regions)))
 
 
 def checked(tree: ast.File, items: list[tuple[str, str]] | None = None
@@ -219,6 +252,7 @@ def checked(tree: ast.File, items: list[tuple[str, str]] | None = None
         program = check(tree)  # reports STL004 as ``check`` does
     dims = {n: v.dim for n, v in ck.globals.names.items() if isinstance(v, Num)}
     settings = resolve(tree.path, tree, program, dims, items)
-    if any(s.kind == "const" for s in settings):
-        program = check(apply_consts(tree, settings))
+    placed = frozenset(s.name.split(".")[0] for s in settings if s.kind == "region")
+    if placed or any(s.kind == "const" for s in settings):
+        program = check(apply_consts(tree, settings), placed=placed)
     return apply_values(program, settings), {s.name: s.value for s in settings}

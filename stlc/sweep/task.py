@@ -2,7 +2,9 @@
 a CSV row and the plan out.  CasADi objects never travel: the worker process keeps its
 built NLPs (``nlp_cache``, keyed by structure) and the plans it solved (a ``PlanLibrary``
 per structure) in module state between tasks, so the first task of a worker builds and
-later ones bind their values into the same NLP and start from the nearest solved plan."""
+later ones bind their values into the same NLP and start from a solved plan: of the 4
+nearest (in the varied values), the one with the best exact robustness at the instance's
+own values — a start's objective is what the energy stage it runs first descends from."""
 
 from __future__ import annotations
 
@@ -71,7 +73,8 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
     if isinstance(chain[-1], CasadiNlp):
         key = (mission, structure_key(problem))
         lib = _LIBRARIES.setdefault(key, PlanLibrary())
-        near = lib.nearest(vals) if warm else None
+        # of the 4 nearest solved plans, the most robust at this instance's own values
+        near = lib.nearest(vals, _scorer(program, m, problem.grid.dt)) if warm else None
         if near is not None:
             chain = [LibrarySeed(*near), chain[-1]]
     _, sol = plan(program, m, values=vals, chain=chain)
@@ -83,3 +86,10 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
             "iterations": int(st.get("iterations", 0) or 0),
             "solve_s": float(sol.timing.get("solve_s", 0.0)),
             "warm": chain[0].name, "plan_csv": trajectory_csv(sol)}
+
+
+def _scorer(program, mission, dt: float):
+    """A library plan's exact robustness at this instance's values (its own pose)."""
+    from stlc.analysis import monitor
+
+    return lambda ch: float(monitor.robustness(mission.requirement, dt, ch, program.params))

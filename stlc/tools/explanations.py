@@ -188,8 +188,8 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
         "signal x\nmission m {\n  horizon = 5.05 s\n  step = 0.1 s\n  require x > 0\n}\n",
         "signal x\nmission m {\n  horizon = 5 s\n  step = 0.1 s\n  require x > 0\n}\n"),
     "STL306": (
-        "An event of a `simulate` block (or of `--disturb`/`--fail`) lies outside the "
-        "mission's horizon.",
+        "An event of a `simulate` block (`disturb`, `fail`, `move`, or `--disturb`/`--fail`/"
+        "`--move`) lies outside the mission's horizon.",
         _m("  require always[0, 5] uav1.pos.z > 0\n  simulate {\n    disturb uav1 { time = "
            "25 s; displacement = (1, 0, 0) m }\n  }\n"),
         _m("  require always[0, 5] uav1.pos.z > 0\n  simulate {\n    disturb uav1 { time = "
@@ -197,8 +197,8 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
     "STL401": (
         "The planner (or the replanner) does not support this construct for this mission: "
         "e.g. a kept spec of `replan` that is not an `always` over the vehicle's own "
-        "state, a takeover on a mission without payloads, disturbances and a failure in one "
-        "simulation.",
+        "state, a takeover on a mission without payloads, disturbances and a failure (or an "
+        "operator move and vehicle events, or two moves) in one simulation.",
         "replan { keep = [handover] }   # handover is an `eventually`",
         "replan { keep = [safety] }     # safety = always[0, T_N] (uav1.pos in workspace)"),
     "STL402": (

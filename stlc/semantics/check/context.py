@@ -94,8 +94,11 @@ class Context(ABC):
     #: the built-in functions, by name (set by ``stlc.semantics.check.program``)
     functions: ClassVar[dict[str, Builtin]] = {}
 
-    def __init__(self, tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None):
+    def __init__(self, tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None,
+                 placed: frozenset[str] = frozenset()):
         self.tree = tree
+        #: world regions whose centre is a parameter (``--set 'pole.center.x=...'``)
+        self.placed = placed
         #: mission name → vehicles added to its team (``mission_for_team``: a backup drone
         #: joins the executed team of a takeover)
         self.extra_team = dict(extra_team or {})

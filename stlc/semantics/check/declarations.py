@@ -270,7 +270,11 @@ def _region(ck: Context, kind: str, name: str, node: ast.Node, span: Span, frame
         ck.d.error("STL208", f"`{name}` must be a region, e.g. box(lo, hi) m", node.span)
         ck.failed.add(name)
         return None
-    reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame))
+    placed = name if frame is None and name in ck.placed else None
+    reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame, placed))
+    if placed:  # the centre is a parameter of the formulas (--set NAME.center.x=...)
+        for k, a in enumerate("xyz"):
+            ck.params[f"{name}.center.{a}"] = (v.box.lo[k] + v.box.hi[k]) / 2
     ck.regions.append(model.Region(name, kind, reg.box, span))
     return reg
 

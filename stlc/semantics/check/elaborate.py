@@ -34,6 +34,7 @@ from stlc.semantics.check.values import (
     Value,
     VehicleV,
     add,
+    box_faces,
     broadcast,
     const,
     div,
@@ -211,6 +212,13 @@ class ExpressionElaborator(Context):
                 if idx is None:
                     return self.err("STL103", f"`{prefix}` has no component `{part}`", span)
                 return Num(np.array(arr[idx]), dim)
+            case RegionV(name, box) if box.placed is not None and part in (
+                    "lo", "hi", "center", "centre"):  # the centre is a parameter
+                faces = [box_faces(box, k) for k in range(3)]
+                items = tuple(ir.Param(f"{box.placed}.center.{a}") for a in "xyz") \
+                    if part in ("center", "centre") else \
+                    tuple(f[0 if part == "lo" else 1] for f in faces)
+                return Sym(items, units.LENGTH, True, tuple(f"{prefix}.{a}" for a in "xyz"))
             case RegionV(name, box):
                 fields = {"lo": Num(np.array(box.lo), units.LENGTH),
                           "hi": Num(np.array(box.hi), units.LENGTH)}

@@ -4,10 +4,12 @@
       disturb uav1 { time = 6 s; displacement = (1.1, 0, 0) m }     # a push (and/or
       disturb uav1 { time = 11 s; velocity = (0, 0.8, 0) m/s }      # a velocity kick)
       fail uav1 { time = 60 s; backup = uav3 }                      # paper B §IV-C
+      move operator { time = 8 s; pos = (1, 0.2, 0) m; att = (0, 0, 20) deg }  # paper A §6
     }
 
 ``event_problems`` holds the rules shared with events given on the command line
-(``--disturb``, ``--fail``/``--backup``), which the pipeline reports at the mission's name.
+(``--disturb``, ``--fail``/``--backup``, ``--move``), which the pipeline reports at the
+mission's name.
 Part of the checker (``stlc.semantics.check``); imports only ``context`` and lower layers.
 """
 
@@ -19,7 +21,7 @@ from stlc.semantics import model
 from stlc.semantics.check import units
 from stlc.semantics.check.context import Context
 
-EVENT_KINDS = ("disturb", "fail")
+EVENT_KINDS = ("disturb", "fail", "move")
 
 
 def event_problems(vehicles: dict[str, model.Vehicle], mission_vehicles: tuple[str, ...],
@@ -63,18 +65,28 @@ def check_simulate(ck: Context, b: ast.Block, vehicles: tuple[str, ...],
     sb = blocks[0]
     dist: list[model.Disturbance] = []
     fails: list[model.Failure] = []
+    moves: list[model.HumanMove] = []
     for m in sb.members:
         if not isinstance(m, ast.Block):
-            ck.d.error("STL108", "a `simulate` block holds only `disturb` and `fail` blocks",
-                       m.span, "write `disturb uav1 { time = 6 s; displacement = (1, 0, 0) m }`"
-                       " or `fail uav1 { time = 60 s; backup = uav3 }`")
+            ck.d.error("STL108", "a `simulate` block holds only `disturb`, `fail` and `move` "
+                       "blocks", m.span,
+                       "write `disturb uav1 { time = 6 s; displacement = (1, 0, 0) m }`, "
+                       "`fail uav1 { time = 60 s; backup = uav3 }` or "
+                       "`move operator { time = 8 s; pos = (1, 0, 0) m }`")
             continue
         if m.kind not in EVENT_KINDS:
             ck.bad_kind(m.kind, m.span, EVENT_KINDS, "in `simulate`")
             continue
         if not m.name:
-            ck.d.error("STL104", f"`{m.kind}` needs the vehicle it applies to", m.span,
-                       f"write `{m.kind} uav1 {{ time = ... }}`")
+            who = "human who moves" if m.kind == "move" else "vehicle it applies to"
+            ck.d.error("STL104", f"`{m.kind}` needs the {who}", m.span,
+                       f"write `{m.kind} {'operator' if m.kind == 'move' else 'uav1'} "
+                       "{ time = ... }`")
+            continue
+        if m.kind == "move":
+            mv = _move(ck, m, horizon)
+            if mv is not None:
+                moves.append(mv)
             continue
         ev = _disturb(ck, m) if m.kind == "disturb" else _fail(ck, m)
         if ev is None:
@@ -87,7 +99,14 @@ def check_simulate(ck: Context, b: ast.Block, vehicles: tuple[str, ...],
         (dist if m.kind == "disturb" else fails).append(ev)  # type: ignore[arg-type]
     if len({f.vehicle for f in fails}) < len(fails):
         ck.d.error("STL102", "a vehicle fails once", sb.span)
-    return model.SimulateConfig(tuple(dist), tuple(fails))
+    if moves and (dist or fails):
+        ck.d.error("STL401", "a simulation has an operator move or vehicle events, not both",
+                   moves[0].span, "simulate them one at a time (or override the file's "
+                   "events with --move / --disturb)")
+    for extra in moves[1:]:
+        ck.d.error("STL401", "one operator move per simulation", extra.span,
+                   "simulate the moves one at a time")
+    return model.SimulateConfig(tuple(dist), tuple(fails), tuple(moves))
 
 
 def _disturb(ck: Context, m: ast.Block) -> model.Disturbance | None:
@@ -115,3 +134,31 @@ def _fail(ck: Context, m: ast.Block) -> model.Failure | None:
     if t is None or node is None:
         return None
     return model.Failure(m.name, t, node.parts[0], m.span)  # type: ignore[union-attr]
+
+
+def _move(ck: Context, m: ast.Block, horizon: float | None) -> model.HumanMove | None:
+    """``move HUMAN { time = T; pos = (x, y, z) m; att = (roll, pitch, yaw) deg }``: a
+    declared human, a time strictly inside the horizon, a new position and/or attitude."""
+    f = ck.fields(m, {"time": True, "pos": False, "att": False})
+    t = ck.num(f, "time", units.TIME)
+    pos = ck.vec(f, "pos", 3, units.LENGTH)
+    att = ck.vec(f, "att", 3, units.ANGLE)
+    ok = True
+    if m.name not in ck.humans:
+        ck.d.error("STL101", f"no human `{m.name}` in the scenario", m.name_span,
+                   did_you_mean(m.name, ck.humans) or
+                   ("the scenario's humans: " + ", ".join(ck.humans) if ck.humans else
+                    "declare one in the scenario: `human operator { pos = (...) m }`"))
+        ok = False
+    if "pos" not in f and "att" not in f:
+        ck.d.error("STL104", "a move needs a new `pos` or `att`", m.span,
+                   "add `pos = (1, 0.2, 0) m` or `att = (0, 0, 20) deg`")
+        return None
+    if t is not None and horizon is not None and not 0.0 < t < horizon:
+        ck.d.error("STL306", f"the move at {t:g} s is outside the mission horizon "
+                   f"(0, {horizon:g}) s", f["time"].value.span,
+                   f"give a time between 0 and {horizon:g} s")
+        ok = False
+    if not ok or t is None or ("pos" in f and pos is None) or ("att" in f and att is None):
+        return None
+    return model.HumanMove(m.name, t, pos, att, m.span)  # type: ignore[arg-type]

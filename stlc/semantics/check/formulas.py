@@ -32,6 +32,7 @@ from stlc.semantics.check.values import (
     Value,
     VehicleV,
     add,
+    box_faces,
     broadcast,
     const,
     finite_expr,
@@ -386,11 +387,13 @@ def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span,
     o = origin or Origin(FACE, label, region=reg.name, regions=(reg.name,) if reg.name else ())
     preds = []
     for k, axis in enumerate("xyz"):
-        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span,
+        lo, hi = box_faces(box, k)
+        preds.append(ir.Pred(sub(p[k], lo), f"{label} ({axis} >= lo)", span,
                              origin=dataclasses.replace(o, axis=axis, side="lo")))
-        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span,
+        preds.append(ir.Pred(sub(hi, p[k]), f"{label} ({axis} <= hi)", span,
                              origin=dataclasses.replace(o, axis=axis, side="hi")))
     return ir.And(tuple(preds), span)
+
 
 
 def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:

@@ -28,13 +28,14 @@ from stlc.semantics.check.values import Sym
 TOP_KINDS = ("vehicle", "scenario", "mission", "spec", "const", "signal")
 
 
-def check(tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None
-          ) -> model.Program:
+def check(tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None,
+          placed: frozenset[str] = frozenset()) -> model.Program:
     """Check a parsed file; raise ``StlcError`` with all diagnostics if anything is wrong.
 
     ``extra_team`` adds vehicles to a mission's team (mission name → vehicle names), so that
-    its quantifiers (``forall d in team``) range over them too (see ``mission_for_team``)."""
-    ck = Checker(tree, extra_team)
+    its quantifiers (``forall d in team``) range over them too (see ``mission_for_team``).
+    ``placed`` names world regions whose centre becomes a parameter (``--set``)."""
+    ck = Checker(tree, extra_team, placed)
     try:
         return ck.run()
     except RecursionError:  # the elaborator guards each value; this is the last resort

@@ -201,3 +201,13 @@ def finite_expr(e: ir.Expr) -> bool:
             case ir.Call(_, args):
                 stack.extend(args)
     return True
+
+
+def box_faces(box: model.Box, k: int) -> tuple[ir.Expr, ir.Expr]:
+    """The low and high face of ``box`` along axis ``k``: constants, or the centre parameter
+    ∓ the half-size for a placed box (its size stays, its centre is ``--set``)."""
+    if box.placed is None:
+        return const(box.lo[k]), const(box.hi[k])
+    c = ir.Param(f"{box.placed}.center.{'xyz'[k]}")
+    h = const((box.hi[k] - box.lo[k]) / 2)
+    return sub(c, h), add(c, h)
