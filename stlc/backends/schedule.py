@@ -419,7 +419,7 @@ def _energy_lambda(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: di
 
 
 def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj, kappa: float,
-            lam_e: float, record) -> tuple[np.ndarray, Stage]:
+            lam_e: float, record, limit: int = STAGE_ITER) -> tuple[np.ndarray, Stage]:
     """Paper A eq. 6 from ``w`` at λ = ``lam_e`` with ``w``'s branches: unconstrained, then
     with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ."""
     p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
@@ -427,12 +427,12 @@ def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj
         inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
                                            params, inv.grid.n, inv.planned, inv.grid.dt)
     w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e, None,
-                                 f"energy λ={lam_e:g}", STAGE_ITER, PATIENCE, most_robust=False)
+                                 f"energy λ={lam_e:g}", limit, PATIENCE, most_robust=False)
     st = record("energy", lam_e, w_e, stats, f_, dt_)
     if st.exact < kappa and not deadline.solve_expired():
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e,
                                      PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
-                                     STAGE_ITER, PATIENCE, most_robust=False)
+                                     limit, PATIENCE, most_robust=False)
         st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
     inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) if inv.choice_nodes else {}
     return w_e, st
@@ -440,11 +440,11 @@ def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj
 
 def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dict, problem,
                  record) -> tuple[np.ndarray, float] | None:
-    """The energy stage first, from a neighbour's plan (λ: where it clears PLAN_MARGIN, else
-    one step above the mission's); (plan, λ), or None if it misses κ: the schedule follows."""
+    """Energy stage first (≤ 100 iterations) from a neighbour's plan: (plan, λ), None < κ."""
     lam = problem.smoothing.lam
     lam_e = _energy_lambda(prob, inv, w0, params, lam)
     if _planner_smooth(prob, inv, w0, params, lam_e) < PLAN_MARGIN:
         lam_e = min(lam * LAM_FACTOR, LAM_MAX)
-    w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record)
+    w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record,
+                      100)
     return (w_e, lam_e) if st.exact >= problem.threshold else None
