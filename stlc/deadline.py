@@ -47,13 +47,32 @@ RESERVE_MAX_S = 2.5
 #: the limit of a run that gives none (see the module docstring)
 DEFAULT_LIMIT_S = 1800.0
 
-_state: dict[str, float | None] = {"end": None, "limit": None, "start": None, "default": None}
+
+
+class _State(threading.local):
+    """The limit of the calling thread: a sweep's instances running as threads of one Dask
+    worker each keep their own (the watchdog hands its thread's limit to the writer)."""
+
+    def __init__(self) -> None:
+        self.__dict__.update(end=None, limit=None, start=None, default=None)
+
+    def __getitem__(self, key: str):
+        return self.__dict__[key]
+
+    def update(self, **kw) -> None:
+        self.__dict__.update(kw)
+
+    def copy(self) -> dict:
+        return dict(self.__dict__)
+
+
+_state = _State()
 #: a thread stuck in one long C call (CasADi differentiating a large NLP; the GIL is
 #: released) does not see the exception; after ``GRACE_S`` the watchdog itself runs the
 #: ``overrun`` writer (the fallback plan's outputs) and ends the process with its exit code
 GRACE_S = 0.4
 _watch: dict = {"timer": None, "thread": None, "armed": False, "fired": False,
-                "caught": False, "overrun": None, "entered": False}
+                "caught": False, "overrun": None, "entered": False, "state": {}}
 _lock = threading.Lock()
 
 
@@ -106,7 +125,7 @@ def limited(seconds: float | None, start: float | None = None,
     if active():
         with _lock:
             _watch.update(thread=threading.get_ident(), armed=True, fired=False,
-                          caught=False, overrun=overrun, entered=False)
+                          caught=False, overrun=overrun, entered=False, state=_state.copy())
             t = threading.Timer(max(0.0, solve_remaining()), _fire)
             t.daemon = True
             _watch["timer"] = t
@@ -124,14 +143,15 @@ def limited(seconds: float | None, start: float | None = None,
 
 
 @contextlib.contextmanager
-def bounded() -> Iterator[None]:
-    """The default limit (``default_limit``) for a block that runs solves without one and
-    without the watchdog (``simulate``'s replans: every IPOPT solve built or stopped there
-    sees it); a limit already active is kept."""
+def bounded(seconds: float | None = None) -> Iterator[None]:
+    """A limit of ``seconds`` (None: the default, ``default_limit``) for a block that runs
+    solves, without the watchdog (``simulate``'s replans, a sweep's instance in a Dask
+    worker: every solve there sees it, a build is not cut); a limit already active is
+    kept."""
     if active():
         yield
         return
-    set_limit(default_limit(), default=True)
+    set_limit(default_limit() if seconds is None else seconds, default=seconds is None)
     try:
         yield
     finally:
@@ -163,6 +183,7 @@ def _hard_stop() -> None:
             return
         _watch["caught"] = True  # the planning thread must not write too
         overrun = _watch["overrun"]
+        _state.update(**_watch["state"])  # the planning thread's limit, for the writer
     code = 3
     try:
         code = overrun()

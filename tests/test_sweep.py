@@ -207,3 +207,29 @@ def test_sweep_output_directory_is_under_the_manifest(tmp_path):
     assert (out / "solution.json").read_text() == solution  # the compile's set is kept
     assert recorded("files") == ["report.html", "solution.json", "trajectory.csv"]
     assert not [n for n in os.listdir(out) if n.startswith(".stlc-stage-")]
+
+
+def test_time_limit_is_each_instances_limit(tmp_path):
+    """`sweep --time-limit S` (issue 22): S bounds each instance from its start on its
+    worker, as `compile --time-limit` bounds a compile.  With 1 ms the worker's first
+    instance (its imports and first build inside the limit) is `stopped`; a later one may
+    still be `satisfied` by the MILP's minimal slice (the verdict is the exact monitor's,
+    as for compile); nothing else.  A stopped row's plan is judged like any: its robustness
+    is the one `stlc monitor` finds on plans/<i>.csv.  Exit 3; the limit is in sweep.json."""
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    r = stlc("sweep", str(f), "--mission", "m", "--vary", "T=2.6 s:3 s:2", "--workers", "1",
+             "--time-limit", "0.001", "-o", str(out), "-q")
+    assert r.returncode == 3, r.stderr
+    rs = rows(out)
+    assert rs[0]["status"] == "stopped" and rs[1]["status"] in ("stopped", "satisfied")
+    assert json.loads((out / "sweep.json").read_text())["time_limit_s"] == 0.001
+    m = stlc("monitor", str(f), "--set", "T=2.6 s", "--trace", str(out / "plans" / "0.csv"),
+             "--json")
+    assert m.returncode == 0, m.stderr
+    rho = json.loads(m.stdout)["specs"]["m"]["robustness"]
+    assert rho == pytest.approx(float(rs[0]["robustness"]), abs=1e-6) and rho < 0
+    r = stlc("sweep", str(f), "--mission", "m", "--vary", "T=2.6 s:3 s:2", "--time-limit",
+             "0", "-o", str(out))
+    assert r.returncode == 2 and "positive" in r.stderr

@@ -62,7 +62,9 @@ def _client(workers: int | None, scheduler: str | None, path: str):
 
 def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | None,
           workers: int | None = None, scheduler: str | None = None,
-          random: int | None = None, seed: int = 0, quiet: bool = False) -> int:
+          random: int | None = None, seed: int = 0, quiet: bool = False,
+          time_limit: float | None = None) -> int:
+    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``)."""
     from stlc.frontend.syntax import parse_file
     from stlc.output.directory import (MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup,
                                        preflight)
@@ -117,7 +119,8 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
         for i, inst in enumerate(insts):
             items = fixed + [(n, t) for n, _, t in inst]
             futs[client.submit(run_instance, source, path, m.name, items,
-                               {n: v for n, v, _ in inst}, i, pure=False, retries=1)] = i
+                               {n: v for n, v, _ in inst}, i, time_limit=time_limit,
+                               pure=False, retries=1)] = i
         pending = set(futs)
         sat = 0
         _progress(0, len(insts), 0, t0, quiet)
@@ -154,7 +157,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
             if client is not None and interrupted:
                 client.cancel(list(futs))
             summary = _write(stage, outdir, path, m.name, axes, insts, rows, wall, fixed,
-                             workers, scheduler, interrupted, random, seed)
+                             workers, scheduler, interrupted, random, seed, time_limit)
         finally:
             _cleanup(stage)
     _close(client, cluster)
@@ -199,7 +202,7 @@ def _csv(axes, rows: list[dict], spec_names: list[str]) -> str:
 
 
 def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, workers,
-           scheduler, interrupted, random=None, seed=0) -> dict:
+           scheduler, interrupted, random=None, seed=0, time_limit=None) -> dict:
     from stlc.output.directory import publish
     from stlc.strictjson import strict
     from stlc.sweep.report import render
@@ -229,6 +232,7 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         "t_c_note": "p95 of solve_s over the instances: paper A §4.4's estimate of the "
                     "replanning budget t_c",
         "random": random, "seed": seed if random is not None else None,
+        "time_limit_s": time_limit,  # per instance; None: the default limit
         "scheduler": scheduler or f"LocalCluster({workers or os.cpu_count()} processes, "
                                   "1 thread each)",
         "workers": per_worker,
