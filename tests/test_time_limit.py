@@ -163,3 +163,23 @@ def test_default_limit_stops_a_long_compile(tmp_path):
     assert sol["solver"]["stopped_by"] == "time_limit" and sol["solver"]["time_limit_s"] == 4
     assert sol["solver"]["time_limit_default"] is True
     assert sol["status"] == ("satisfied" if r.returncode == 0 else "stopped")
+
+
+def test_watchdog_writer_sees_the_planning_threads_limit():
+    """The limit is per thread (a sweep's instances in one Dask worker's threads keep their
+    own); the watchdog's writer, run from the timer thread while the planning thread is
+    stuck in one C call (here a sleep), sees the planning thread's limit and its exit code
+    ends the process."""
+    script = (
+        "import time\nfrom stlc import deadline\n"
+        "def writer():\n"
+        "    print('writer', deadline.active(), deadline.limit(), deadline.is_default(),"
+        " flush=True)\n"
+        "    return 3\n"
+        "with deadline.limited(0.2, overrun=writer):\n"
+        "    time.sleep(20)\n"
+        "print('not reached')\n")
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                       env=_env(), timeout=60)
+    assert r.returncode == 3, r.stderr
+    assert r.stdout.split() == ["writer", "True", "0.2", "False"]
