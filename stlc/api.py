@@ -138,9 +138,9 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
                                    "missions: " + ", ".join(m.name for m in chosen))])
     m = chosen[0]
     t0 = time.perf_counter()
-    _, sol = plan(program, m, quiet=quiet)
+    problem, sol = plan(program, m, quiet=quiet)
     if risk and m.risk is not None:
-        assess_risk(program, m, sol)
+        assess_risk(program, m, sol, problem)
     sol.timing["total_s"] = time.perf_counter() - t0
     return Plan(program, m, sol)
 

@@ -160,9 +160,10 @@ def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
               f"{' (forced)' if chain.forced else ''}: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
     sol = _run_verified(problem, chain)
+    sol = _next_choices(problem, chain, sol, quiet)
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
-    if sol.status != "satisfied" and not deadline.solve_expired():
+    if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
         from stlc.backends.milp_conflict import explain_infeasible
 
         explain_infeasible(problem, sol, quiet=quiet)
@@ -190,6 +191,50 @@ def _run_verified(problem, chain):
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
+    return sol
+
+
+NEXT_CHOICES = 2  #: further seeds tried when the NLP's plan from a MILP seed misses κ
+
+
+def _next_choices(problem, chain, sol, quiet: bool):
+    """The NLP planned from a MILP seed missed κ: plan again from other seeds — the local
+    kinematic guess (the seed of the `kinematic` chain: a class the MILP's coarse, relaxed
+    path did not choose), then the next-best discrete choice (the MILP seed with a no-good
+    cut on its choices for the conjuncts the plan violates) — at most ``NEXT_CHOICES`` and
+    within the time limit; the verified plan with the larger exact robustness is kept, and
+    the record lists every try."""
+    from stlc.backends.casadi_backend import KinematicGuess
+    from stlc.backends.select import Chain
+
+    seed = chain.backends[0] if chain.backends else None
+    if sol.status in ("satisfied", "infeasible") or not hasattr(seed, "next_seed"):
+        return sol
+    others = []
+    if seed.choices:  # the MILP chose the first path: the local guess is another class
+        others.append(("the kinematic guess", KinematicGuess()))
+    nxt = seed.next_seed(problem, sol.channels)
+    if nxt is not None:
+        others.append(("the next-best MILP seed (its choices for the violated specs "
+                       "excluded)", nxt))
+    tries = []
+    for label, other_seed in others[:NEXT_CHOICES]:
+        if sol.status == "satisfied" or deadline.solve_expired():
+            break
+        if not quiet:
+            print(f"{problem.mission.name}: exact robustness {sol.robustness_exact:+.4f} < κ; "
+                  f"planning again from {label}", file=sys.stderr)
+        other = _run_verified(problem, Chain(chain.name, [other_seed, *chain.backends[1:]],
+                                             chain.forced))
+        tries.append({"seed": label, "exact": other.robustness_exact,
+                      "status": str(other.status)})
+        a, b = sol.robustness_exact, other.robustness_exact
+        if b == b and not (a == a and a >= b):
+            other.notes.append(f"planned from {label}: the MILP seed's plan had exact "
+                               f"robustness {a:.6g}")
+            sol = other
+    if tries:
+        sol.solver["chain"]["next_choices"] = tries
     return sol
 
 
@@ -242,12 +287,13 @@ def plan_in_time(program: model.Program, mission: model.Mission, *, quiet: bool 
         return problem, judged_fallback(problem)
 
 
-def assess_risk(program: model.Program, mission: model.Mission, sol) -> None:
-    """Run the mission's risk cases on the plan; results go onto the Solution (in memory)."""
+def assess_risk(program: model.Program, mission: model.Mission, sol, problem=None) -> None:
+    """Run the mission's risk cases on the plan (of ``problem``, whose requirement and named
+    specs are assessed); results go onto the Solution (in memory)."""
     from stlc.analysis.assess import run_risk
 
     t0 = time.perf_counter()
-    sol.risk, sol.risk_results = run_risk(program, mission, sol)
+    sol.risk, sol.risk_results = run_risk(program, mission, sol, problem=problem)
     sol.timing["risk_s"] = time.perf_counter() - t0
 
 
@@ -307,14 +353,14 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                               start=start if time_limit is not None and last else None,
                               overrun=outputs.overrun_writer(program, m, outdirs[m.name], code,
                                                                quiet)):
-            _, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
-                                  values=loaded.values)
+            problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
+                                        values=loaded.values)
             sol.timing.update(loaded.timing)
             if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
                 sol.notes.append("the risk cases were not assessed: the time limit ran out "
                                  "(`stlc risk` assesses them on trajectory.csv)")
             elif risk and m.risk is not None:
-                assess_risk(program, m, sol)
+                assess_risk(program, m, sol, problem)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
         found = list(sol.diagnostics)  # the plan's own warnings (STLW02)

@@ -142,10 +142,10 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                 sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
                 program = moved_program(program, moves[0])
             elif fails:
-                from stlc.backends.backup import BackupPlanner
+                from stlc.backends.backup import TakeoverBackend
                 from stlc.replan.takeover import simulate_failure
 
-                sim = simulate_failure(problem, sol, fails[0], cfg, planner=BackupPlanner())
+                sim = simulate_failure(problem, sol, fails[0], cfg, planner=TakeoverBackend())
             else:
                 from stlc.backends.segment import SegmentBackend
                 from stlc.replan.disturb import simulate_disturbances

@@ -40,12 +40,18 @@ def _plain(o):
         return (type(o).__name__, tuple(
             (f.name, _plain(getattr(o, f.name))) for f in dataclasses.fields(o)
             if f.name not in ("span", "name_span", "label", "spec_spans", "source")
-            and not (type(o).__name__ == "Bound" and f.name == "signal")))  # source text
+            and not (type(o).__name__ == "Bound" and f.name == "signal")  # source text
+            and not (type(o).__name__ == "Origin" and f.name in ORIGIN_TEXT)))
     if isinstance(o, dict):
         return tuple((k, _plain(v)) for k, v in o.items())
     if isinstance(o, (list, tuple)):
         return tuple(_plain(x) for x in o)
     return o
+
+
+#: the fields of a predicate's origin that are source text as written (layout may change
+#: them; what they say about the predicate — kind, face, side, regions, negation — may not)
+ORIGIN_TEXT = {"text", "subject", "left", "right", "region_text", "bound_text"}
 
 
 def _words(comments) -> list[str]:

@@ -107,6 +107,23 @@ def _random_plans(problem, count: int, seed: int) -> list[dict]:
     return out
 
 
+@pytest.mark.parametrize("log", [False, True])
+def test_the_plan_is_the_point_of_the_optimum(base_problem, log):
+    """Found by the property test below (log encoding): HiGHS returned the MIP start's point
+    (pos.x(1 s) = 0: ρ = 1.5) beside the optimum's objective 2.25 (pos.x(1 s) = 0.75 by
+    hand: accelerate at 2 m/s² for 0.5 s, then coast at 1 m/s); the point is now checked."""
+    f = ir.Or((ir.Eventually(0.0, 2.0, ir.Pred(ir.Bin("-", ir.Sig("d1.vel.x"), ir.Const(1.0)),
+                                               "a")),
+               ir.Always(1.0, 1.0, ir.Pred(ir.Bin("-", ir.Sig("d1.pos.x"), ir.Const(-1.5)),
+                                           "b"))))
+    req = nnf.normalize(f)
+    problem = replace(base_problem, requirement=req)
+    with _encoding(log):
+        sol, _ = run_chain(problem, [ExactMilp(time_limit=60)])
+    rho = float(monitor.robustness(req, problem.grid.dt, sol.channels, problem.params))
+    assert abs(sol.solver["objective"] - 2.25) < 1e-6 and abs(rho - 2.25) < 1e-6
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(f=formulas, log=st.booleans())
 def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f, log):

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from stlc import pipeline
-from stlc.backends.backup import BackupPlanner
+from stlc.backends.backup import TakeoverBackend
 from stlc.replan import takeover
 from stlc.replan.takeover import TakeoverError, retire
 from stlc.semantics import model
@@ -22,7 +22,7 @@ from stlc.semantics import model
 
 def simulate_failure(*args, **kw):
     """The takeover with the backup planner the pipeline gives it."""
-    return takeover.simulate_failure(*args, planner=BackupPlanner(), **kw)
+    return takeover.simulate_failure(*args, planner=TakeoverBackend(), **kw)
 
 
 MISSION = "tests/missions/takeover_cross.stl"

@@ -12,6 +12,7 @@ import math
 import os
 import re
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -39,6 +40,7 @@ from stlc.semantics.model import (
     Rotor,
     Scenario,
 )
+from stlc.semantics.origin import FACE, Origin
 
 FILE = "demo.stl"
 SOURCE = """\
@@ -75,16 +77,23 @@ def hexarotor() -> Multirotor:
 
 
 BEHIND = "not (uav1.pos not in operator.behind (x >= lo))"
+#: what the checker and the normal form record about that predicate (``ir.Pred.origin``)
+BEHIND_ORIGIN = Origin(FACE, "uav1.pos not in operator.behind", subject="uav1.pos",
+                       region="operator.behind", region_text="operator.behind", axis="x",
+                       side="lo", regions=("operator.behind",), negated=True)
+HO_ORIGIN = Origin(FACE, "uav1.pos in operator.ho", subject="uav1.pos", region="operator.ho",
+                   region_text="operator.ho", axis="y", side="lo", regions=("operator.ho",))
 
 
 def formulas() -> dict:
     z_hi = Pred(Bin("-", Const(2.5), Sig("uav1.pos.z")), "uav1.pos.z <= 2.5", span(13, 28, 45))
     z_lo = Pred(Bin("-", Sig("uav1.pos.z"), Const(0.2)), "uav1.pos.z >= 0.2", span(13, 50, 67))
-    behind = Pred(Bin("-", Const(-1.0), Sig("uav1.pos.x")), BEHIND, span(13, 72, 103))
+    behind = Pred(Bin("-", Const(-1.0), Sig("uav1.pos.x")), BEHIND, span(13, 72, 103),
+                  origin=BEHIND_ORIGIN)
     reach = Pred(Bin("-", Sig("uav1.pos.x"), Const(-0.5)), f"uav1.pos.x >= -0.5 {NASTY}",
                  span(14, 34, 52))
     ho = Pred(Bin("-", Sig("uav1.pos.y"), Const(2.3)), "uav1.pos in operator.ho (y >= lo)",
-              span(14, 56, 80))
+              span(14, 56, 80), origin=HO_ORIGIN)
     return {"safe": Always(0.0, 2.0, And((z_hi, z_lo, behind)), span(13)),
             "reach": Eventually(1.0, 2.0, Or((reach, ho)), span(14))}
 
@@ -165,7 +174,8 @@ def synthetic_case(status: str = "satisfied", risk: bool = True
     violated = status != "satisfied"
     reach_rho = -0.12 if violated else 0.05
     specs = {
-        "safe": SpecResult(0.25, 0.21, True, 1.2, BEHIND, 13, binding_line=13),
+        "safe": SpecResult(0.25, 0.21, True, 1.2, BEHIND, 13, binding_line=13,
+                           binding_origin=BEHIND_ORIGIN),
         "reach": SpecResult(reach_rho, reach_rho - 0.04, not violated, 1.5,
                             f"uav1.pos.x >= -0.5 {NASTY}", 14, binding_line=14),
     }
@@ -305,23 +315,19 @@ def test_region_colours(view):
     assert boxes["ws"]["wireframe"] and boxes["ws"]["role"] == "workspace"
     assert boxes["pillar"]["role"] == "nofly" and boxes["pillar"]["color"] == "#d62728"
     assert boxes["operator.behind"]["color"] == "#d62728"
-    vis = boxes["operator.vis"]
-    assert vis["role"] == "visibility" and vis["color"] == "#1f77b4"
+    vis = boxes["operator.vis"]  # never used by the mission: a human's region, approach
+    assert vis["role"] == "approach" and not vis["visible"]
     assert boxes["operator.ho"]["role"] == "approach"
     assert not boxes["operator.ho"]["wireframe"]
-    assert region_role("pr2", "region") == "approach"
-    assert region_role("handover_zone", "region") == "approach"
-    assert region_role("approach_left", "region") == "approach"
-    assert region_role("nofly_1", "region") == "nofly"
-    assert region_role("t3", "target") == "target"
-    assert region_role("s1", "station") == "station"
-    assert region_role("home", "home") == "home"
-    assert region_role("shore", "target") == "target"  # "ho" only as a word
-    # regions attached to a human: matched without the "human." prefix; the rest approach
-    assert region_role("visitor.behind", "region", "visitor") == "nofly"
-    assert region_role("operator.visibility", "region", "operator") == "visibility"
-    assert region_role("operator.ltb2", "region", "operator") == "approach"
-    assert region_role("corridor", "region") == "region"
+    assert region_role("target") == "target" and region_role("station") == "station"
+    assert region_role("home") == "home" and region_role("obstacle") == "nofly"
+    assert region_role("target", None, {"out"}) == "target"  # the declaration first
+    # a human's regions: by use, whatever their names; a free region is a region
+    assert region_role("region", "visitor", {"out"}) == "nofly"
+    assert region_role("region", "operator", {"stay"}) == "visibility"
+    assert region_role("region", "operator", {"stay", "out"}) == "approach"
+    assert region_role("region", "operator", {"in"}) == "approach"
+    assert region_role("region", None, {"out"}) == "region"
     assert vis["label"] == "vis"
     assert [r["label"] for r in view["scene"]["roles"]] == ["no-fly", "approach"]
 
@@ -496,7 +502,8 @@ def test_point_mass_team_without_risk_or_comparison():
     assert view["signals"]["markers"] == [{"spec": "separation", "t": 0.0,
                                            "label": "separation fails"}]
     html = render_report(view)
-    assert "modelled for multirotors only" in html and 'id="energy-profile"' not in html
+    assert "Energy not computed" in html and "paper B's power model" in html
+    assert 'id="energy-profile"' not in html
 
 
 def test_signals_derived_when_channels_missing():
@@ -632,24 +639,68 @@ def test_num_rounds_to_five_digits():
     assert num(math.inf) is None and num(None) is None and num("x") is None
 
 
-@pytest.mark.parametrize("label, text", [
-    # box membership is six face predicates labelled with the source text; the normal form
-    # pushes the negation of `not in` onto a face: outside, past that face
-    ("not (uav1.pos not in operator.behind (y <= hi))",
-     "uav1.pos outside operator.behind (y > hi)"),
-    ("not (uav1.pos in pole (x >= lo))", "uav1.pos outside pole (x < lo)"),
-    ("uav1.pos in operator.handover (x >= lo)", "uav1.pos in operator.handover (x ≥ lo)"),
-    ("uav1.rotor_speed in [40 Hz, 80 Hz] (lower)", "uav1.rotor_speed ≥ 40 Hz"),
-    ("not (uav1.rotor_speed in [40 Hz, 80 Hz] (upper))", "uav1.rotor_speed > 80 Hz"),
-    ("abs(angdiff(uav1.heading, uav1.course)) <= 30 deg",
-     "abs(angdiff(uav1.heading, uav1.course)) ≤ 30 deg"),
-    ("not (uav1.speed <= 0.4 m/s)", "uav1.speed > 0.4 m/s"),
-    ("not (min(a, b) >= 1 and c)", "min(a, b) < 1 and c"),
-    ("not (f(x))", "not (f(x))"),
-    ("", "—"),
+READABLE_SPECS = """
+spec a = uav1.pos not in operator.behind
+spec b = not (uav1.pos in pole)
+spec c = uav1.pos in operator.handover
+spec d = uav1.rotor_speed in [40 Hz, 80 Hz]
+spec e = not (uav1.rotor_speed in [40 Hz, 80 Hz])
+spec f = abs(angdiff(uav1.heading, uav1.course)) <= 30 deg
+spec g = not (uav1.speed <= 0.4 m/s)
+spec h = not (uav1.pos.x<=2 m)
+spec i = always[0, 5] (uav1.pos in operator.visibility) and eventually[0, 5] (uav1.pos in
+         operator.handover) and (uav1.pos not in operator.handover) until[0, 5] true
+"""
+
+
+@pytest.fixture(scope="module")
+def readable_program(tmp_path_factory):
+    from stlc.pipeline import load
+
+    src = (Path(__file__).parent.parent / "specs" / "handover.stl").read_text()
+    path = tmp_path_factory.mktemp("readable") / "r.stl"
+    path.write_text(src[:src.index("# ---- shared")] + READABLE_SPECS, encoding="utf-8")
+    return load(str(path)).program
+
+
+@pytest.mark.parametrize("spec, texts", [
+    # box membership is six face predicates; the normal form pushes the negation of `not
+    # in` onto each face (``origin.negated``): outside, past that face
+    ("a", {"uav1.pos outside operator.behind (y > hi)", "uav1.pos outside operator.behind "
+           "(x < lo)"}),
+    ("b", {"uav1.pos outside pole (x < lo)"}),
+    ("c", {"uav1.pos in operator.handover (x ≥ lo)", "uav1.pos in operator.handover (z ≤ hi)"}),
+    ("d", {"uav1.rotor_speed ≥ 40 Hz", "uav1.rotor_speed ≤ 80 Hz"}),
+    ("e", {"uav1.rotor_speed > 80 Hz", "uav1.rotor_speed < 40 Hz"}),
+    ("f", {"abs(angdiff(uav1.heading, uav1.course)) ≤ 30 deg"}),
+    ("g", {"uav1.speed > 0.4 m/s"}),
+    ("h", {"uav1.pos.x > 2 m"}),  # the operands as written, the operator flipped
 ])
-def test_readable_predicate_labels(label, text):
-    assert readable(label) == text
+def test_readable_predicates_from_their_origin(readable_program, spec, texts):
+    """The checker records each predicate's origin; ``readable`` renders it (the label is
+    not read, except as the fallback of a predicate built without one)."""
+    from stlc.semantics import ir, nnf
+
+    preds = ir.predicates(nnf.normalize(readable_program.specs[spec]))
+    assert all(p.origin is not None for p in preds)
+    assert texts <= {readable(p.origin, p.label) for p in preds}
+
+
+def test_readable_without_origin():
+    assert readable(None, "not (f(x))") == "not (f(x))"
+    assert readable(None, "") == "—"
+
+
+def test_region_uses_come_from_the_origins(readable_program):
+    from stlc.output.report.predicates import mentioned
+    from stlc.output.report.scene import region_uses
+
+    uses = region_uses([readable_program.specs[s] for s in ("a", "b", "i")])
+    assert uses["operator.behind"] == {"out"} and uses["pole"] == {"out"}
+    assert uses["operator.visibility"] == {"stay"}
+    assert uses["operator.handover"] == {"in", "out"}
+    assert mentioned([readable_program.specs["i"]]) == {"operator.visibility",
+                                                        "operator.handover"}
 
 
 def test_the_binding_predicate_keeps_its_line_through_negation():
@@ -754,3 +805,27 @@ def test_write_report_is_atomic(tmp_path, case):
     assert path.read_text(encoding="utf-8").endswith("</html>\n")
     n2 = write_report(path, *case)  # overwriting works too
     assert n2 == n
+
+
+def test_region_roles_do_not_depend_on_names(tmp_path):
+    """The shipped handover with its human's regions renamed (``behind`` → ``zone1``,
+    ``visibility`` → ``zone2``, ``handover`` → ``zone3``) colours them as before: by use."""
+    from stlc.output.report.scene import region_uses
+    from stlc.pipeline import load
+
+    src = (Path(__file__).parent.parent / "specs" / "handover.stl").read_text()
+    for old, new in (("operator.behind", "operator.zone1"), ("region behind", "region zone1"),
+                     ("operator.visibility", "operator.zone2"),
+                     ("region visibility", "region zone2"),
+                     ("operator.handover", "operator.zone3"), ("region handover", "region zone3")):
+        src = src.replace(old, new)
+    path = tmp_path / "renamed.stl"
+    path.write_text(src, encoding="utf-8")
+    program = load(str(path)).program
+    m = program.missions["handover_left_tb"]
+    uses = region_uses([m.requirement, *m.specs.values()])
+    roles = {r.name: region_role(r.kind, r.box.frame, uses.get(r.name, set()))
+             for r in program.scenario.regions}
+    assert roles["operator.zone1"] == "nofly" and roles["operator.zone2"] == "visibility"
+    assert roles["operator.zone3"] == "approach" and roles["operator.ltb1"] == "approach"
+    assert roles["pole"] == "nofly" and roles["workspace"] == "workspace"

@@ -13,7 +13,7 @@ command itself is ordered by ``stlc.pipeline.risk_file``).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -28,22 +28,41 @@ class Plan(Protocol):
 
     channels: Mapping[str, np.ndarray]
 
+
+class Planned(Protocol):
+    """What the risk pass reads of a planning problem (``stlc.planning.problem``, a layer
+    above): the requirement in NNF, the named specs, the smoothing and the grid."""
+
+    requirement: Any
+    specs: Mapping[str, Any]  # name -> NamedSpec
+    smoothing: model.Smoothing
+    grid: Any
+
+
 def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
-             dt: float | None = None, shared=None):
+             dt: float | None = None, shared=None, problem: Planned | None = None):
     """Risk cases of the mission on the plan of ``sol``; returns (risk dict, results), or
     (None, None) without a ``risk`` block.  ``dt`` is the plan's sample period (default:
-    the mission's step)."""
+    the problem's, else the mission's step).  With ``problem`` (the plan's planning
+    problem) its requirement, named specs and smoothing are assessed, not rebuilt from the
+    mission as written."""
     from stlc.analysis import risk as riskmod
 
     cfg = mission.risk
     if cfg is None:
         return None, None
-    specs = {k: s.normal for k, s in mission_specs(program, mission).items()}
+    if problem is not None:
+        requirement, named, smoothing = problem.requirement, problem.specs, problem.smoothing
+        dt = problem.grid.dt if dt is None else dt
+    else:
+        requirement, named = nnf.normalize(mission.requirement), mission_specs(program, mission)
+        smoothing = mission.smoothing
+    specs = {k: s.normal for k, s in named.items()}
     base = tuple(d for h in program.scenario.humans for d in h.uncertain)
-    results = riskmod.run_cases(cfg, nnf.normalize(mission.requirement), specs,
+    results = riskmod.run_cases(cfg, requirement, specs,
                                 mission.step if dt is None else dt, sol.channels,
-                                program.params, mission.smoothing.lam,
-                                mission.smoothing.method, base=base, shared=shared)
+                                program.params, smoothing.lam,
+                                smoothing.method, base=base, shared=shared)
     return {"mission": mission.name, "cases": [r.to_json() for r in results]}, results
 
 

@@ -1,10 +1,13 @@
 """The backup drone's plan of a takeover (paper B §IV-C): MILP → seed → refinement.
 
-``BackupPlanner`` is what the pipeline hands to the takeover simulation
-(``stlc.replan.takeover``), which keeps the flight and the event logic: its constructor
-holds the planner's settings, ``plan`` is ``plan_backup`` below and ``forward_speed`` the
-team chain's v*.  (It is not yet a ``Backend``: the pending targets and the allowed
-stations are not fields of a ``PlanningProblem``.)
+``TakeoverBackend`` (registry name ``takeover``) is this planner behind the ``Backend``
+interface; the takeover simulation (``stlc.replan.takeover``, which keeps the flight and
+the event logic) runs it through ``run_chain`` on a ``PlanningProblem`` that says
+everything: ``team`` the backup alone, ``window`` (t0, T_N), ``fixed_channels`` the other
+drones' trajectories (the failed one parked), ``targets`` the pending targets,
+``stations`` the refilling stations it may use, ``time_limit`` the MILP's budget, the
+objective's forward weight the refinement's η.  Its ``Solution`` carries the backup's
+channels on the window's samples, its route and the statistics (``solver["stats"]``).
 
 Everything is the nominal team planner, called on a reduced problem; nothing here is a
 second planner:
@@ -37,8 +40,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from stlc.backends.base import SolverStatus
+from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
 from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
+from stlc.planning.problem import PlanningProblem
+from stlc.planning.solution import Solution, Verdict
 from stlc.planning.takeover import BackupPlan, Fixed
 from stlc.team import Drone, TeamError, TeamPlan, TeamScenario
 from stlc.team.nlp import FixedDrone
@@ -113,16 +118,73 @@ def plan_backup(base: TeamScenario, backup: Drone, pending: list[str], stations:
     return BackupPlan(status, route, plan.pos[b], plan.vel[b], plan.acc[b], stats)
 
 
-class BackupPlanner:
-    """The takeover's planner, handed to ``stlc.replan.takeover.simulate_failure``."""
+class TakeoverBackend(Backend):
+    """The backup drone's plan of a takeover (module docstring) as a backend."""
 
     name = "team milp + refinement (backup)"
+    capabilities = Capabilities(vehicle_models=frozenset({"point_mass"}), nodes=ALL_NODES,
+                                functions=ALL_FUNCTIONS, team=False,
+                                derived_signals=frozenset({"payload"}),
+                                needs_signals=frozenset({"payload"}), windows=True)
+    STATUS_MAP = IPOPT_STATUS_MAP  # the refinement's IPOPT decides the status
+    MILP_BUDGET_S = 10.0  # the task assignment's budget when the problem sets no time limit
 
-    def plan(self, *args, **kw) -> BackupPlan:
-        return plan_backup(*args, **kw)
+    def accepts(self, problem: PlanningProblem) -> list:
+        return []  # ``stlc.replan.takeover.validate`` checks the takeover before any work
 
-    def forward_speed(self, problem):
+    def lower(self, problem: PlanningProblem):
+        """The mission's team scenario, the backup as a team ``Drone`` and the fixed drones
+        on the window (in the order of ``problem.fixed_channels``)."""
+        from stlc.planning.bounds import stated_bounds
+        from stlc.team.seed import scenario_from_program
+
+        base = scenario_from_program(problem.program, problem.mission, separation=float(
+            stated_bounds(problem.requirement).get("distance_min", 0.0)))
+        (b,) = problem.team
+        v = problem.program.vehicles[b]
+        start = problem.start_state(b)[:3]  # a point mass: position first
+        backup = Drone(b, tuple(map(float, start)), tuple(map(float, v.vel_max)),
+                       tuple(map(float, v.acc_max)), int(v.capacity))
+        k0 = int(round(problem.window[0] / problem.grid.dt))
+        drones = {d.name: d for d in base.drones}
+        fixed = []
+        for name in dict.fromkeys(c.split(".")[0] for c in problem.fixed_channels):
+            ch = problem.fixed_channels
+            arr = [np.stack([np.asarray(ch[f"{name}.{f}.{a}"], dtype=float)[k0:]
+                             for a in "xyz"], 1) for f in ("pos", "vel", "acc")]
+            fixed.append(Fixed(drones[name], *arr))
+        return (base, backup, fixed), None
+
+    def solve(self, lowered, problem: PlanningProblem) -> BackupPlan:
         from stlc.backends.team_backend import forward_speed_target
 
-        return forward_speed_target(problem)
+        base, backup, fixed = lowered
+        t0, t_end = problem.window
+        eta = float(problem.objective.forward_weight)
+        v_star = forward_speed_target(problem) if eta > 0 else None
+        budget = problem.time_limit if problem.time_limit is not None else self.MILP_BUDGET_S
+        return plan_backup(base, backup, list(problem.targets or ()),
+                           list(problem.stations or ()), fixed, float(t_end - t0),
+                           lam=problem.smoothing.lam, kappa=problem.threshold,
+                           eta=eta if v_star is not None else 0.0, v_star=v_star,
+                           milp_budget_s=float(budget))
+
+    def invert(self, bp: BackupPlan, inverse, problem: PlanningProblem) -> Solution:
+        (b,) = problem.team
+        k0 = int(round(problem.window[0] / problem.grid.dt))
+        ch: dict[str, np.ndarray] = {}
+        for f, arr in (("pos", bp.pos), ("vel", bp.vel), ("acc", bp.acc)):
+            if arr is not None:
+                ch.update({f"{b}.{f}.{a}": np.asarray(arr[:, i]) for i, a in enumerate("xyz")})
+        status = SolverStatus(bp.status)
+        return Solution(
+            mission=problem.name,
+            status=Verdict.VIOLATED if bp.pos is not None else Verdict.SOLVER_FAILED,
+            robustness_exact=float("nan"), robustness_smooth=float("nan"), specs={},
+            energy=0.0, times=problem.grid.times()[k0:], channels=ch,
+            solver={"name": self.name, "status": str(status),
+                    "return_status": str(bp.stats.get("ipopt_status", status)),
+                    "converged": status.converged, "stats": dict(bp.stats),
+                    "message": bp.message},
+            routes={b: list(bp.route)})
 

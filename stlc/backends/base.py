@@ -64,6 +64,9 @@ class Capabilities:
     #: plans only problems whose requirement reads one of these signal fields (a team
     #: chain: ``payload``); empty = any problem
     needs_signals: frozenset[str] = frozenset()
+    #: plans a part of the grid (``problem.window``) from given start states; a backend
+    #: without it plans the whole horizon and refuses a windowed problem
+    windows: bool = False
 
     def describe(self) -> str:
         return (f"vehicles {sorted(self.vehicle_models)}"
@@ -134,6 +137,10 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
             out.append(Diagnostic("STL401", f"{who} cannot plan a `{kind}` vehicle "
                                   f"(`{v.name}`)", v.span,
                                   "supported models: " + ", ".join(sorted(cap.vehicle_models))))
+    if problem.window is not None and not cap.windows:
+        out.append(Diagnostic("STL401", f"{who} plans the whole horizon, not the window "
+                              f"[{problem.window[0]:g}, {problem.window[1]:g}] s",
+                              problem.mission.span))
     if not cap.team and len(problem.team) > 1:
         out.append(Diagnostic("STL401", f"{who} plans one vehicle, the mission has "
                               f"{len(problem.team)}", problem.mission.span))
@@ -169,7 +176,9 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
 def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solution, list]:
     """Run ``chain`` in order, each backend seeded with the previous ``Solution``.  Every
     backend's ``accepts`` runs before any work; a backend whose lowering needs no seed is
-    lowered while the previous one solves.  Returns the last Solution and all of them."""
+    lowered while the previous one solves.  A backend whose Solution is ``infeasible`` (a
+    proof that no plan exists: a seed's MILP over a relaxation) ends the chain there.
+    Returns the last Solution and all of them."""
     diags = [d for b in chain for d in b.accepts(problem)]
     if diags:
         raise StlcError(diags)
@@ -188,5 +197,7 @@ def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solut
         raw = wait()
         sol = b.invert(raw, inverse, p)
         sols.append(sol)
+        if sol.status == "infeasible":
+            break
         p = p.with_seed(sol)
     return sols[-1], sols

@@ -53,8 +53,7 @@ class KinematicGuess(Backend):
         from stlc.backends import schedule
 
         t0 = time.perf_counter()
-        kin = schedule.kinematic_guess(problem.program, problem.mission, problem.grid,
-                                       problem.requirement)
+        kin = schedule.kinematic_guess(problem)
         return kin, time.perf_counter() - t0
 
     def start(self, lowered, problem: PlanningProblem):
@@ -119,22 +118,19 @@ class CasadiNlp(Backend):
         self.quiet = quiet
 
     def lower(self, problem: PlanningProblem):
-        from stlc.backends import casadi_nlp
         from stlc.backends.smooth_casadi import LoweringError
 
-        mission, grid = problem.mission, problem.grid
-        integrator = str(mission.options.get("integrator", "rk4"))
         from stlc.backends import nlp_cache
 
+        grid = problem.grid
         try:  # one build per structure: the instance's values are bound (nlp_cache)
-            prob, inv, built = nlp_cache.lowered(problem.program, mission, grid, integrator,
-                                                 quiet=self.quiet)
+            prob, inv, built = nlp_cache.lowered(problem, quiet=self.quiet)
         except LoweringError as e:
-            raise StlcError([Diagnostic("STL401", f"cannot plan mission `{mission.name}`: "
-                                        f"{e}", mission.span)]) from None
+            raise StlcError([Diagnostic("STL401", f"cannot plan mission `{problem.name}`: "
+                                        f"{e}", problem.mission.span)]) from None
         if not self.quiet:
             how = f"built in {prob.build_s:.2f} s" if built else "reused"
-            print(f"{mission.name}: {grid.n} samples, {prob.n_vars} variables, {prob.n_cons} "
+            print(f"{problem.name}: {grid.n} samples, {prob.n_vars} variables, {prob.n_cons} "
                   f"constraints ({how})", file=sys.stderr)
         return _Lowered(prob, inv, prob.build_s if built else 0.0), inv
 
@@ -156,27 +152,25 @@ class CasadiNlp(Backend):
         guess_s = time.perf_counter() - t0 + problem.seed.timing.get("guess_s", 0.0)
         if not self.quiet:
             print(f"  initial guess: {guess_s:.2f} s", file=sys.stderr)
-        raw = schedule.solve_mission(problem.program, problem.mission, lowered.prob,
-                                     lowered.inv, w0, self.quiet)
+        raw = schedule.solve_mission(problem, lowered.prob, lowered.inv, w0, self.quiet)
         return raw, lowered.prob, guess_s, lowered.build_s
 
     def invert(self, raw_all, inv, problem: PlanningProblem) -> Solution:
         from stlc.backends import casadi_nlp
 
         raw, prob, guess_s, build_s = raw_all
-        mission = problem.mission
+        sm = problem.smoothing
         ch = channels_with_derived(inv, raw.w)
         lam = raw.lam
         smooth_v = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, problem.params,
-                                                  lam, mission.smoothing.method))
+                                                  lam, sm.method))
         energy, profile = energy_profile(inv, ch)
         last = raw.stages[-1] if raw.stages else None
-        integrator = str(mission.options.get("integrator", "rk4"))
-        defect = casadi_nlp.dynamics_defect(raw.w, inv, integrator)
+        defect = casadi_nlp.dynamics_defect(raw.w, inv, problem.integrator)
         feasible = defect <= casadi_nlp.FEASIBLE_DEFECT
         failed = not feasible or all(s.status == "failed" for s in raw.stages)
         sol = Solution(
-            mission=mission.name, status=Verdict.SOLVER_FAILED if failed else Verdict.VIOLATED,
+            mission=problem.name, status=Verdict.SOLVER_FAILED if failed else Verdict.VIOLATED,
             robustness_exact=float("nan"), robustness_smooth=smooth_v, specs={},
             energy=energy, times=inv.grid.times(), channels=ch,
             solver={"name": "ipopt (casadi)",
@@ -185,8 +179,8 @@ class CasadiNlp(Backend):
                     "max_dynamics_defect": defect,
                     "converged": bool(last.converged) if last else False,
                     "stages": [vars(s) for s in raw.stages]},
-            smoothing={"method": mission.smoothing.method, "lambda": mission.smoothing.lam,
-                       "lambda_final": lam, "threshold": mission.threshold},
+            smoothing={"method": sm.method, "lambda": sm.lam,
+                       "lambda_final": lam, "threshold": problem.threshold},
             problem_size={"samples": inv.grid.n, "variables": prob.n_vars,
                           "constraints": prob.n_cons,
                           "aux": inv.aux_slice.stop - inv.aux_slice.start},
@@ -198,8 +192,8 @@ class CasadiNlp(Backend):
         if not feasible:
             sol.notes.append(f"the solver found no dynamically feasible plan (largest dynamics "
                              f"defect {defect:.2e} > {casadi_nlp.FEASIBLE_DEFECT:g})")
-        if lam != mission.smoothing.lam:
-            sol.notes.append(f"the smoothing λ was raised from {mission.smoothing.lam:g} to "
+        if lam != sm.lam:
+            sol.notes.append(f"the smoothing λ was raised from {sm.lam:g} to "
                              f"{lam:g} (the smooth robustness under-estimates by up to ln(n)/λ)")
         for st in raw.stages:
             if not st.converged:

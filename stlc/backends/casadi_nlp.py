@@ -1,6 +1,8 @@
 """The CasADi/IPOPT backend: a checked mission → a smooth-robustness trajectory NLP.
 
-``build(program, mission, grid)`` lowers the mission into one NLP (paper A eq. 6) built once:
+``build(problem)`` lowers a ``PlanningProblem`` into one NLP (paper A eq. 6) built once; it
+reads the problem's typed fields only (team, grid, requirement, threshold, smoothing,
+objective, integrator, end state, iteration limit, start states), never the mission as written:
 
 * decision variables: every vehicle's states at the n samples and inputs on the N intervals
   (multiple shooting, RK4 by default), then the auxiliary variables of the lifted robustness;
@@ -39,7 +41,8 @@ from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
 from stlc.vehicles import dynamics
 from stlc.vehicles.dynamics import substeps
-from stlc.semantics import ir, model, nnf
+from stlc.planning.problem import PlanningProblem
+from stlc.semantics import ir, model
 from stlc.semantics.timegrid import TimeGrid
 
 INPUT_REG = 1e-4
@@ -194,13 +197,13 @@ def _channels(layouts: list[Layout], w: ca.SX, n: int) -> dict[str, ca.SX]:
     return out
 
 
-def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
-          integrator: str = "rk4", quiet: bool = True) -> tuple[NlpProblem, InverseData]:
+def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, InverseData]:
     t0 = time.perf_counter()
+    program, grid, integrator = problem.program, problem.grid, problem.integrator
     n, N = grid.n, grid.n_intervals
     layouts: list[Layout] = []
     off = 0
-    for name in mission.vehicles:
+    for name in problem.team:
         v = program.vehicles[name]
         nx, nu = vehicles.model_of(v).state_size(v)
         layouts.append(Layout(v, slice(off, off + nx * n), slice(off + nx * n,
@@ -211,9 +214,9 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     lam, w_rob, w_en, w_fwd = (ca.SX.sym(s) for s in ("lam", "w_rob", "w_en", "w_fwd"))
     p = ca.vertcat(lam, w_rob, w_en, w_fwd)
 
-    formula = nnf.normalize(mission.requirement)
+    formula = problem.requirement  # in negation normal form
     chans = _channels(layouts, wt, n)
-    planned = planner_form(formula, mission.threshold, program.params)
+    planned = planner_form(formula, problem.threshold, program.params)
     fixed, nodes = choices.choice_form(planned, FIX_WINDOWS) if FIX_CHOICES else (planned, [])
     extra = []
     for name in choices.signals(nodes) if nodes else []:
@@ -222,7 +225,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     psyms = {k: ca.SX.sym(k) for k in sorted(ir.params(fixed))}  # e.g. a human's pose
     p = ca.vertcat(p, *extra, *psyms.values())
     lowered = lower_robustness(fixed, grid, chans, {**program.params, **psyms}, lam,
-                               method=mission.smoothing.method)
+                               method=problem.smoothing.method)
     aux = lowered.aux
     w = ca.vertcat(wt, aux)
     g_list, lbg, ubg = [], [], []
@@ -244,7 +247,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         ubx[L.x_slice] = np.tile(b.x_hi, n)
         lbx[L.u_slice] = np.tile(b.u_lo, N)
         ubx[L.u_slice] = np.tile(b.u_hi, N)
-        x0 = vm.initial_state(v)
+        x0 = problem.start_state(v.name)
         start = L.x_slice.start
         lbx[start:start + L.nx] = x0
         ubx[start:start + L.nx] = x0
@@ -254,11 +257,12 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
         if e_x is not None:
             e_fn = ca.Function("e", [xs], [e_x]).map(n)
             energy += ca.sum2(e_fn(X)) / n  # mean per sample: O(1), like ρ̃
-        elif mission.objective.forward_speed:
-            vstar = dynamics.forward_speed_target(v, mission.objective.forward_speed)
+        elif problem.objective.forward_speed:
+            vstar = dynamics.forward_speed_target(v, problem.objective.forward_speed)
             fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
     n_dyn = sum(x.numel() for x in g_list)
-    fly = flyable.add_rows(g_list, lbg, ubg, mission, layouts, wt, n)  # holdable end, heading
+    # the holdable end (when the problem asks for it) and the heading regulariser
+    fly = flyable.add_rows(g_list, lbg, ubg, problem.hold_end, layouts, wt, n)
     cons, lb_r, ub_r = lowered.constraints()
     g_list.append(cons)
     lbg.append(lb_r)
@@ -273,7 +277,7 @@ def build(program: model.Program, mission: model.Mission, grid: TimeGrid,
     opts = dict(IPOPT_DEFAULTS)
     # developer knob: extra solver options as JSON, e.g. STLC_IPOPT='{"ipopt.print_level": 5}'
     opts.update(json.loads(os.environ.get("STLC_IPOPT", "{}")))
-    opts["ipopt.max_iter"] = int(mission.options.get("max_iter", 1000))
+    opts["ipopt.max_iter"] = int(problem.max_iter)
     root_fn = ca.Function("root", [w, p], [lowered.root])
     progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)
     opts["iteration_callback"] = progress

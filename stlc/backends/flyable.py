@@ -20,28 +20,22 @@ import casadi as ca
 import numpy as np
 
 from stlc import vehicles
-from stlc.semantics import model
 
 #: |f(x_N, 0)| per component (m/s, rad/s, m/s², rad/s², N/s) — see the module docstring
 HOLD_TOL = 0.05
 YAW_REG = 1e-3
 
 
-def holds_end(mission: model.Mission) -> bool:
-    """Does the mission want a holdable end state (the default)?"""
-    return str(mission.options.get("end", "hover")) != "free"
-
-
-def add_rows(g_list: list, lbg: list, ubg: list, mission: model.Mission, layouts: list,
+def add_rows(g_list: list, lbg: list, ubg: list, hold_end: bool, layouts: list,
              wt: ca.SX, n: int) -> ca.SX:
-    """Append the holdable-end rows (when the mission wants them) and return the heading
-    regulariser (an objective term)."""
+    """Append the holdable-end rows (when the problem wants them: ``hold_end``) and return
+    the heading regulariser (an objective term)."""
     term = ca.SX(0)
     for L in layouts:
         v = L.vehicle
         vm = vehicles.model_of(v)
         X = ca.reshape(wt[L.x_slice], L.nx, n)
-        if holds_end(mission):
+        if hold_end:
             xdot = vm.ode(v)(X[:, -1], ca.DM.zeros(L.nu))
             g_list.append(ca.vec(xdot))
             lbg.append(np.full(L.nx, -HOLD_TOL))

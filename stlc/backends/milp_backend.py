@@ -28,12 +28,14 @@ from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_veh
 from stlc.diagnostics import Diagnostic
 from stlc.planning.solution import Solution, Verdict
 from stlc import deadline
-from stlc.backends.flyable import HOLD_TOL, holds_end
+from stlc.backends.flyable import HOLD_TOL
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
 TIME_LIMIT_S = 60.0  #: default wall-time limit of one MILP solve (a mission may set its own); an
 #: unconverged unforced solve then falls back to the `nlp` chain (``pipeline._fallback``)
+
+KAPPA_MARGIN = 1e-6  #: the feasibility phase asks ρ̂ ≥ κ + this
 
 HIGHS_STATUS_MAP = {
     "Optimal": SolverStatus.OPTIMAL,
@@ -62,6 +64,7 @@ class Lowered:
     build_s: float
     terms: dict[str, Term] = field(default_factory=dict)
     box: dict = field(default_factory=dict)
+    spans: dict[str, tuple[int, int]] = field(default_factory=dict)
 
 
 def planned_channels(problem: PlanningProblem, relaxed: bool = False) -> set[str]:
@@ -105,10 +108,12 @@ def invariant_box(problem: PlanningProblem) -> dict[str, tuple[float, float]]:
 
 
 def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
-          box: dict[str, tuple[float, float]] | None = None) -> Lowered:
+          box: dict[str, tuple[float, float]] | None = None,
+          top_of: str | None = None) -> Lowered:
     """The MILP of ``problem``'s vehicles with each formula of ``formulas`` encoded at
-    sample 0 (``terms``); ``lins`` maps a vehicle to its (states, inputs, A, B, bounds, x0)
-    (default: the vehicle's own linear model)."""
+    sample 0 (``terms``; ``spans``: the columns each one added), and the epigraph column
+    ρ̂ of formula ``top_of`` (default: the only formula); ``lins`` maps a vehicle to its
+    (states, inputs, A, B, bounds, x0) (default: the vehicle's own linear model)."""
     t0 = time.perf_counter()
     m = Milp()
     grid = problem.grid
@@ -132,7 +137,7 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
             bounds = replace(bounds, x_lo=lo_, x_hi=hi_)
         lvs.append(linear_vehicle(m, v.name, states, inputs, a, b, bounds, x0, grid.dt,
                                   grid.n, discrete))
-    if lins is None and holds_end(problem.mission):  # the NLP's holdable end, as rows
+    if lins is None and problem.hold_end:  # the NLP's holdable end, as rows
         for lv, v in zip(lvs, problem.vehicles()):
             ac, _ = linear_model(v)  # continuous: f(x, 0) = A x
             for row in np.atleast_2d(np.asarray(ac, float)):
@@ -153,14 +158,20 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
         return None if f is None else np.asarray(f, dtype=float)
 
     enc = Encoder(m, grid, dict(problem.params), channel, fixed)
-    terms = {name: enc.at(f, 0) for name, f in formulas.items()}
+    terms, spans = {}, {}
+    for name, f in formulas.items():  # in order: later formulas reuse earlier terms (memo)
+        c0 = m.n_cols
+        terms[name] = enc.at(f, 0)
+        spans[name] = (c0, m.n_cols)
     top = -1
-    if len(formulas) == 1:
-        t = next(iter(terms.values()))
+    if top_of is None and len(formulas) == 1:
+        top_of = next(iter(formulas))
+    if top_of is not None:
+        t = terms[top_of]
         if not t.is_const:
             top = m.var(t.lo, t.hi)
             enc._le(top, t)
-    return Lowered(m, lvs, top, enc, time.perf_counter() - t0, terms)
+    return Lowered(m, lvs, top, enc, time.perf_counter() - t0, terms, spans=spans)
 
 
 def nonlinear_predicates(problem: PlanningProblem, formula: ir.Formula) -> list[Diagnostic]:
@@ -206,7 +217,7 @@ class ExactMilp(Backend):
         return low, low
 
     def _limit(self, problem: PlanningProblem) -> float:
-        t = problem.mission.options.get("time_limit")
+        t = problem.time_limit
         if t is None:
             t = self.time_limit if self.time_limit is not None else TIME_LIMIT_S
         return float(min(float(t), max(deadline.solve_remaining(), 0.01)))
@@ -233,7 +244,10 @@ class ExactMilp(Backend):
             return Highs(low.milp, {}, time_limit=limit).solve()
         t0 = time.perf_counter()
         h = Highs(low.milp, {}, time_limit=limit)
-        kappa_lo = max(low.milp.lo[low.top], problem.threshold)
+        # κ plus a margin above the monitor's rounding (MILP and monitor agree to ~1e-9): a
+        # plan at exactly κ could be judged a hair below it (seen on the 60 s patrol)
+        kappa_lo = min(max(low.milp.lo[low.top], problem.threshold + KAPPA_MARGIN),
+                       low.milp.hi[low.top])
         h.set_col_bounds(low.top, kappa_lo, low.milp.hi[low.top])
         first = h.solve()
         self.phases = [("feasibility", first.status, first.wall_s)]
@@ -242,6 +256,16 @@ class ExactMilp(Backend):
         if first.x is not None:
             h.start(first.x)
         res = h.solve()
+        if res.x is not None and abs(res.x[low.top] + res.objective) > 1e-6 * (
+                1 + abs(res.objective)):
+            # HiGHS (1.x) can return the MIP start's point beside another point's objective
+            # (seen when presolve ends the search): never trust one without the other
+            self.phases.append(("optimisation (inconsistent point)", res.status, res.wall_s))
+            h = Highs(low.milp, {low.top: -1.0},
+                      time_limit=max(limit - (time.perf_counter() - t0), 1.0))
+            wall = res.wall_s
+            res = h.solve()
+            res.wall_s += wall
         self.phases.append(("optimisation", res.status, res.wall_s))
         res.wall_s += first.wall_s
         if res.x is None and first.x is not None:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -55,7 +56,7 @@ def exact_model(problem) -> bool:
     exact on it): the proof may use the vehicles' own discrete dynamics, not a relaxation."""
     from stlc.backends.milp_backend import linear_model
 
-    return (str(problem.mission.options.get("integrator", "rk4")) == "rk4"
+    return (problem.integrator == "rk4"
             and all(linear_model(v) is not None for v in problem.vehicles()))
 
 
@@ -163,13 +164,24 @@ class _Checker:
         return False if res.x is not None else None
 
 
-def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
-    """Prove that no plan satisfies ``problem`` and name a minimal conflict; on a proof,
-    mark ``sol`` infeasible (status, conflict, STL504) and return True."""
+@dataclass(frozen=True)
+class Proof:
+    """No plan reaches κ: ``conflict`` lists named specs (and ``require``) that cannot hold
+    together; ``minimal`` is False when a check of the deletion filter ran out of time."""
+
+    conflict: tuple[str, ...]
+    minimal: bool
+    wall_s: float
+    exact: bool  # proved on the vehicles' own linear model, not on the relaxation
+
+
+def prove_infeasible(problem) -> Proof | None:
+    """A proof that no plan satisfies ``problem`` with a minimal conflict, or None (no
+    proof: feasible, undecided in time, or not encodable)."""
     exact = exact_model(problem)
     lins = None if exact else relaxed_vehicle(problem)
     if lins is None and not exact:
-        return False
+        return None
     keep = _kept_channels(problem)
     if exact:
         from stlc.backends.milp_backend import planned_channels
@@ -180,18 +192,18 @@ def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
     req = restrict(problem.requirement)
     size = sum(1 for _ in ir.nodes(problem.requirement))
     if problem.grid.n * len(problem.team) * size > MAX_CELLS:
-        return False
+        return None
     specs = required_specs(problem)
     formulas = {REQUIRE: req, **{n: restrict(problem.specs[n].normal) for n in specs}}
     t0 = time.perf_counter()
     try:
         ck = _Checker(problem, formulas, lins)
     except (NotLinear, ValueError):
-        return False
+        return None
     left = lambda: min(TOTAL_LIMIT_S - (time.perf_counter() - t0),  # noqa: E731
                        deadline.solve_remaining())
     if ck.infeasible([REQUIRE], min(SOLVE_LIMIT_S, left())) is not True:
-        return False
+        return None
     # a minimal conflict among the required specs (the `require` line only if needed)
     elements = list(specs)
     if not elements or ck.infeasible(elements, min(SOLVE_LIMIT_S, left())) is not True:
@@ -206,8 +218,22 @@ def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
             elements = rest
         elif verdict is None:
             minimal = False
-    _mark(problem, sol, elements, minimal, time.perf_counter() - t0, quiet, exact)
+    return Proof(tuple(elements), minimal, time.perf_counter() - t0, exact)
+
+
+def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
+    """Prove that no plan satisfies ``problem`` and name a minimal conflict; on a proof,
+    mark ``sol`` infeasible (status, conflict, STL504) and return True."""
+    proof = prove_infeasible(problem)
+    if proof is None:
+        return False
+    mark(problem, sol, proof, quiet)
     return True
+
+
+def mark(problem, sol, proof: Proof, quiet: bool = True) -> None:
+    """``sol`` marked infeasible by ``proof`` (status, conflict, notes, STL504)."""
+    _mark(problem, sol, list(proof.conflict), proof.minimal, proof.wall_s, quiet, proof.exact)
 
 
 def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: bool,

@@ -37,16 +37,16 @@ def _library_plans(directory: str) -> list[tuple[dict[str, float], dict[str, np.
     return out
 
 
-def replan_rest(program, mission, grid, flown: dict[str, np.ndarray], k_e: int,
-                library: str | None, pose: dict[str, float]) -> tuple[dict, dict]:
-    """(channels of the new plan, info: solve_s, status, iterations, built, warm_start)."""
+def replan_rest(problem, flown: dict[str, np.ndarray], k_e: int, library: str | None,
+                pose: dict[str, float]) -> tuple[dict, dict]:
+    """(channels of the new plan, info: solve_s, status, iterations, built, warm_start) of
+    ``problem`` (the mission at the moved pose) with samples 0..k_e fixed to ``flown``."""
     from stlc.backends import nlp_cache, schedule
     from stlc.backends.casadi_backend import channels_with_derived
     from stlc.backends.library import PlanLibrary, warm_start
 
-    m = mission
-    integrator = str(m.options.get("integrator", "rk4"))
-    prob, inv, built = nlp_cache.lowered(program, m, grid, integrator)
+    program, lam = problem.program, problem.smoothing.lam
+    prob, inv, built = nlp_cache.lowered(problem)
     lbx, ubx = prob.lbx.copy(), prob.ubx.copy()
     try:
         seed_ch, source = flown, "current plan"
@@ -57,15 +57,15 @@ def replan_rest(program, mission, grid, flown: dict[str, np.ndarray], k_e: int,
             near = lib.nearest(pose)
             if near is not None:
                 seed_ch, source = near[0], f"library {library} (distance {near[2]:.3g})"
-        w_now = warm_start(prob, inv, flown, program.params, m.smoothing.lam)
-        w0 = warm_start(prob, inv, seed_ch, program.params, m.smoothing.lam)
+        w_now = warm_start(prob, inv, flown, program.params, lam)
+        w0 = warm_start(prob, inv, seed_ch, program.params, lam)
         for L in inv.layouts:  # what was flown up to the event is fixed
             xs = slice(L.x_slice.start, L.x_slice.start + L.nx * (k_e + 1))
             us = slice(L.u_slice.start, L.u_slice.start + L.nu * k_e)
             prob.lbx[xs] = prob.ubx[xs] = w0[xs] = w_now[xs]
             prob.lbx[us] = prob.ubx[us] = w0[us] = w_now[us]
         t0 = time.perf_counter()
-        raw = schedule.solve_mission(program, m, prob, inv, w0)
+        raw = schedule.solve_mission(problem, prob, inv, w0)
         solve_s = time.perf_counter() - t0
     finally:
         prob.lbx[:], prob.ubx[:] = lbx, ubx

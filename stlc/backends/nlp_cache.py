@@ -9,9 +9,10 @@ then ``bind`` sets the instance's values — also on the instance that was built
 
 The cache is per process (a Dask worker keeps it between tasks) and keyed by the
 *structure*: the vehicles with their start states blanked, the planner form of the
-requirement (whose predicate scales could depend on parameter values: then the key differs
-and the instance gets its own build), the mission's threshold, smoothing, objective and
-options, the grid and the integrator.  ``STATS["builds"]`` counts the builds of this process.
+problem's requirement (whose predicate scales could depend on parameter values: then the key
+differs and the instance gets its own build), the problem's threshold, smoothing, objective,
+end-state rule and iteration limit, the grid and the integrator.  ``STATS["builds"]``
+counts the builds of this process.
 """
 
 from __future__ import annotations
@@ -21,10 +22,9 @@ import os
 from collections import OrderedDict
 from dataclasses import replace
 
-from stlc import vehicles
 from stlc.backends import choices
-from stlc.semantics import model, nnf
-from stlc.semantics.timegrid import TimeGrid
+from stlc.planning.problem import PlanningProblem
+from stlc.semantics import model
 
 MAX_ENTRIES = 2  # distinct structures kept per process (each holds a built NLP)
 _CACHE: OrderedDict[str, tuple] = OrderedDict()
@@ -37,31 +37,32 @@ def _blank_start(v: model.Vehicle) -> model.Vehicle:
     return replace(v, start_pos=(0.0, 0.0, 0.0))
 
 
-def structure_key(program: model.Program, mission: model.Mission, grid: TimeGrid,
-                  integrator: str) -> str:
+def structure_key(problem: PlanningProblem) -> str:
     """What the built NLP depends on, except the values ``bind`` sets."""
     from stlc.backends import casadi_nlp
     from stlc.backends.casadi_expr import planner_form
 
-    planned = planner_form(nnf.normalize(mission.requirement), mission.threshold,
-                           program.params)
-    parts = (tuple(repr(_blank_start(program.vehicles[n])) for n in mission.vehicles),
-             repr(planned), mission.threshold, mission.smoothing, mission.objective,
-             repr(sorted(mission.options.items(), key=lambda kv: kv[0])), grid.n, grid.dt,
-             integrator, casadi_nlp.FIX_CHOICES, casadi_nlp.FIX_WINDOWS,
+    program, grid = problem.program, problem.grid
+    planned = planner_form(problem.requirement, problem.threshold, program.params)
+    parts = (tuple(repr(_blank_start(program.vehicles[n])) for n in problem.team),
+             repr(planned), problem.threshold, problem.smoothing, problem.objective,
+             problem.hold_end, problem.max_iter, grid.n, grid.dt,
+             problem.integrator, casadi_nlp.FIX_CHOICES, casadi_nlp.FIX_WINDOWS,
              os.environ.get("STLC_IPOPT", ""))
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 
-def bind(prob, inv, program: model.Program) -> None:
+def bind(prob, inv, problem: PlanningProblem) -> None:
     """Set an instance's values into a built NLP: the scenario parameters (``inv.params``,
-    the tail of ``p``), each vehicle's start state (bounds of its first sample) and the
-    vehicle objects the inverse maps read; the choice rows back to the formula as written."""
+    the tail of ``p``), each vehicle's start state (bounds of its first sample: the
+    problem's ``start_state``) and the vehicle objects the inverse maps read; the choice rows
+    back to the formula as written."""
+    program = problem.program
     inv.params = {k: float(program.params[k]) for k in inv.params}
     for L in inv.layouts:
         v = program.vehicles[L.vehicle.name]
         L.vehicle = v
-        x0 = vehicles.model_of(v).initial_state(v)
+        x0 = problem.start_state(v.name)
         start = L.x_slice.start
         prob.lbx[start:start + L.nx] = x0
         prob.ubx[start:start + L.nx] = x0
@@ -69,16 +70,15 @@ def bind(prob, inv, program: model.Program) -> None:
         inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n)
 
 
-def lowered(program: model.Program, mission: model.Mission, grid: TimeGrid,
-            integrator: str = "rk4", quiet: bool = True) -> tuple[object, object, bool]:
+def lowered(problem: PlanningProblem, quiet: bool = True) -> tuple[object, object, bool]:
     """(NlpProblem, InverseData, built now?) for this instance, its values bound."""
     from stlc.backends import casadi_nlp
 
-    key = structure_key(program, mission, grid, integrator)
+    key = structure_key(problem)
     hit = _CACHE.get(key)
     built = hit is None
     if built:
-        hit = casadi_nlp.build(program, mission, grid, integrator, quiet=quiet)
+        hit = casadi_nlp.build(problem, quiet=quiet)
         STATS["builds"] += 1
         _CACHE[key] = hit
         while len(_CACHE) > MAX_ENTRIES:
@@ -88,7 +88,7 @@ def lowered(program: model.Program, mission: model.Mission, grid: TimeGrid,
         _CACHE.move_to_end(key)
     prob, inv = hit
     prob.progress.quiet = quiet
-    bind(prob, inv, program)
+    bind(prob, inv, problem)
     return prob, inv, built
 
 

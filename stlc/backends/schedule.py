@@ -55,7 +55,8 @@ from stlc.backends.casadi_nlp import (
     trajectory_channels,
 )
 from stlc.backends.smooth_casadi import lower_robustness
-from stlc.semantics import ir, model
+from stlc.planning.problem import PlanningProblem
+from stlc.semantics import ir, model, reads
 from stlc.semantics.timegrid import TimeGrid
 
 LAM_FACTOR = 3.0
@@ -80,14 +81,41 @@ MAX_LAM_STAGES = 4
 SEED_CHOICES = os.environ.get("STLC_SEED_CHOICES", "1") == "1"
 
 
-def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGrid,
-                    formula: ir.Formula) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per vehicle: positions (3×n), velocities (3×n), accelerations (3×N)."""
+def _start_kinematics(problem: PlanningProblem, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(position, velocity) of the vehicle's start state (the problem's ``start_state``)."""
+    v = problem.program.vehicles[name]
+    x0 = problem.start_state(name)
+    chans = vehicles.model_of(v).state_channels(v)
+
+    def part(field: str, default) -> np.ndarray:
+        idx = [chans.index(f"{name}.{field}.{a}") if f"{name}.{field}.{a}" in chans else None
+               for a in "xyz"]
+        if None in idx:
+            return np.array(default, dtype=float)
+        return np.array([x0[i] for i in idx], dtype=float)
+
+    return part("pos", v.start_pos), part("vel", (0.0, 0.0, 0.0))
+
+
+def kinematic_guess(problem: PlanningProblem, path: dict | None = None
+                    ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per vehicle of the problem's team: positions (3×n), velocities (3×n), accelerations
+    (3×N) of the double-integrator path maximising the smooth robustness of the position and
+    velocity part of ``problem.requirement`` from the problem's start states.  ``path`` (per
+    vehicle (P, V, A): a MILP seed's path) is where IPOPT starts, and its discrete choices
+    are kept (``choices``: the branch of every disjunction and the sample of every window
+    fixed from the start path), so this local NLP smooths the path without leaving the
+    homotopy class the MILP chose."""
+    program, grid = problem.program, problem.grid
     n, N, dt = grid.n, grid.n_intervals, grid.dt
-    names = list(mission.vehicles)
+    names = list(problem.team)
     keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
-    f = ir.restrict(formula, lambda s: s in keep)
+    f0 = f = ir.restrict(problem.requirement, lambda s: s in keep)
+    fixed = _start_choices(f, path, program.params, grid) if path else {}
+    if fixed:
+        f = choices.choice_form(f, windows=True)[0]
     syms, chans, g, lbx, ubx, x0 = [], {}, [], [], [], []
+    rest = []  # (bound index, v_max) of each vehicle's last velocity held at rest
     obj = ca.SX(0)
     for k, name in enumerate(names):
         v = program.vehicles[name]
@@ -95,23 +123,29 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         for i, a in enumerate("xyz"):
             chans[f"{name}.pos.{a}"] = P[i, :]
             chans[f"{name}.vel.{a}"] = V[i, :]
+        chans.update({c: ca.SX(ca.DM(row.reshape(1, -1))) for c, row in fixed.items()})
         g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
         g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
         vmax, amax = vehicles.model_of(v).kinematic_limits(v)
-        start, vel0 = np.array(v.start_pos), np.array(getattr(v, "start_vel", (0, 0, 0)))
+        start, vel0 = _start_kinematics(problem, name)
         plo, phi_ = np.tile(start, (n, 1)).T.copy(), np.tile(start, (n, 1)).T.copy()
         plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
         vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
         vlo[:, 0] = vhi[:, 0] = vel0
-        if mission.options.get("end", "hover") != "free":  # a holdable end (flyable.py)
+        if problem.hold_end:  # a holdable end (flyable.py)
             vlo[:, -1] = vhi[:, -1] = 0.0
+            rest.append((len(lbx) + 1, vmax))
         syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
         lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
         ubx += [phi_.T.ravel(), vhi.T.ravel(), np.tile(amax, N)]
         # start: hover at the start, bent sideways (breaks symmetric traps), vehicle-specific
         s = np.sin(np.pi * np.arange(n) / max(N, 1))
         P0 = np.tile(start, (n, 1)) + np.outer(s, [0.0, 0.15 * (1 if k % 2 == 0 else -1), 0.05])
-        x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
+        if path is not None and name in path:
+            Ps, Vs, As = path[name]
+            x0 += [Ps.T.ravel(), Vs.T.ravel(), As[:, :N].T.ravel()]
+        else:
+            x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
         obj += 1e-2 * ca.sumsqr(A) / N
     w = ca.vertcat(*syms)
     wx0 = np.concatenate(x0)
@@ -119,7 +153,7 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         sol_w = wx0
     else:
         low = lower_robustness(f, grid, chans, program.params, GUESS_LAM,
-                               method=mission.smoothing.method)
+                               method=problem.smoothing.method)
         cons, lb_r, ub_r = low.constraints()
         W = ca.vertcat(w, low.aux)
         G = ca.vertcat(*g, cons)
@@ -135,14 +169,58 @@ def kinematic_guess(program: model.Program, mission: model.Mission, grid: TimeGr
         for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
             for i, a in enumerate("xyz"):
                 num_ch[f"{name}.pos.{a}"], num_ch[f"{name}.vel.{a}"] = P0[i], V0[i]
+        num_ch.update(fixed)
         aux0, _ = low.init_values(num_ch, program.params, GUESS_LAM)
-        sol = solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]),
-                     lbx=np.concatenate(lbx + [np.full(low.aux.numel(), -np.inf)]),
-                     ubx=np.concatenate(ubx + [np.full(low.aux.numel(), np.inf)]),
-                     lbg=lbg, ubg=ubg)
-        interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
-        sol_w = np.asarray(sol["x"]).ravel()[: w.numel()]
+
+        def run(lo, hi):
+            sol = solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]),
+                         lbx=np.concatenate(lo + [np.full(low.aux.numel(), -np.inf)]),
+                         ubx=np.concatenate(hi + [np.full(low.aux.numel(), np.inf)]),
+                         lbg=lbg, ubg=ubg)
+            interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
+            x = np.asarray(sol["x"]).ravel()[: w.numel()]
+            return x, _kinematic_rho(f0, x, names, grid, program.params)
+
+        sol_w, rho = run(lbx, ubx)
+        if rest and rho < 0 and not deadline.solve_expired():
+            # the end at rest is a preference of the seed (the NLP's rows make the plan
+            # holdable): a path that misses the position part is solved again without it
+            # (handover_low: −0.41 with it, +0.125 without; the NLP then ends it holdable)
+            lo, hi = [a.copy() for a in lbx], [a.copy() for a in ubx]
+            for i, vmax in rest:
+                lo[i][-3:], hi[i][-3:] = -vmax, vmax
+            free_w, free_rho = run(lo, hi)
+            if free_rho > rho:
+                sol_w = free_w
     return _unpack(sol_w, names, n, N)
+
+
+def _start_choices(f: ir.Formula, start: dict, params, grid: TimeGrid) -> dict[str, np.ndarray]:
+    """The choice rows (``choices.choose``) of ``f`` on the start paths: the parameter signals
+    that fix its disjunctions and windows as the start path has them."""
+    if isinstance(f, (ir.TrueF, ir.FalseF)):
+        return {}
+    nodes = choices.choice_form(f, windows=True)[1]
+    if not nodes:
+        return {}
+    ch = {}
+    for name, (P, V, _) in start.items():
+        for i, a in enumerate("xyz"):
+            ch[f"{name}.pos.{a}"], ch[f"{name}.vel.{a}"] = P[i], V[i]
+    return {k: np.asarray(v, float) for k, v in
+            choices.choose(nodes, ch, params, grid.n, f, grid.dt).items()}
+
+
+def _kinematic_rho(f: ir.Formula, w: np.ndarray, names: list[str], grid: TimeGrid,
+                   params: dict) -> float:
+    """Exact robustness of the position/velocity part ``f`` on a kinematic vector."""
+    from stlc.analysis import monitor
+
+    ch = {}
+    for name, (P, V, _) in _unpack(w, names, grid.n, grid.n_intervals).items():
+        for i, a in enumerate("xyz"):
+            ch[f"{name}.pos.{a}"], ch[f"{name}.vel.{a}"] = P[i], V[i]
+    return float(monitor.robustness(f, grid.dt, ch, params))
 
 
 def _unpack(w: np.ndarray, names: list[str], n: int, N: int
@@ -163,11 +241,13 @@ def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
                ) -> np.ndarray:
     """Decision vector from the kinematic path (see the vehicle model's ``guess``)."""
     w = np.zeros(prob.n_vars)
+    needed = reads.reader(inv.formula, inv.grid.dt, inv.grid.n)  # where a channel is read
     for L in inv.layouts:
         v = L.vehicle
         P, V, A = kin[v.name]
         vm = vehicles.model_of(v)
-        X, U = vm.guess(v, P, V, A, inv.grid.dt)
+        X, U = (vm.guess(v, P, V, A, inv.grid.dt, needed) if vehicles.takes(vm.guess, "needed")
+                else vm.guess(v, P, V, A, inv.grid.dt))
         U = vm.fit_guess_inputs(v, U, prob.lbx[L.u_slice][: L.nu], prob.ubx[L.u_slice][: L.nu])
         w[L.x_slice] = X.T.ravel()
         w[L.u_slice] = U.T.ravel()
@@ -229,16 +309,18 @@ def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
     return prob.lowered.init_values(lowering_channels(w, inv), params, lam)[1]
 
 
-def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProblem,
-                  inv: InverseData, w0: np.ndarray, quiet: bool = True) -> RawResult:
+def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
+                  w0: np.ndarray, quiet: bool = True) -> RawResult:
+    """The λ/energy schedule (module doc) on the built NLP, with the problem's objective,
+    threshold, smoothing and comparison variants."""
     from stlc.analysis import smooth
 
     deadline.disarm()  # from here every solve and stage checks the time limit itself
-    params = program.params
-    obj = mission.objective
-    kappa = mission.threshold
-    lam = mission.smoothing.lam
-    method = mission.smoothing.method
+    params = problem.params
+    obj = problem.objective
+    kappa = problem.threshold
+    lam = problem.smoothing.lam
+    method = problem.smoothing.method
     stages: list[Stage] = []
     prob.progress.kappa = kappa
 
@@ -324,7 +406,7 @@ def solve_mission(program: model.Program, mission: model.Mission, prob: NlpProbl
             result.w, result.lam = w_e, lam_e
         inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) \
             if inv.choice_nodes else {}
-    for name, variant in mission.options.get("compare", []):
+    for name, variant in problem.comparisons:
         if variant is None or deadline.solve_expired():
             continue
         if variant.energy_weight == 0 and variant.forward_weight == 0:

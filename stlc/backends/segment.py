@@ -225,7 +225,7 @@ class SegmentBackend(Backend):
     name = "segment nlp"
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
                                 nodes=frozenset({ir.Always, *BODY_NODES}),
-                                functions=ALL_FUNCTIONS, team=False)
+                                functions=ALL_FUNCTIONS, team=False, windows=True)
     STATUS_MAP = STATUS_MAP
 
     def __init__(self, steps: int, budget: float, integrator: str = "rk4"):

@@ -8,7 +8,9 @@ vehicle models — "linear dynamics only" —, formula nodes, functions, planned
 * ``team``: task-assignment MILP → waypoint refinement (missions with payloads, paper B);
 * ``milp``: the exact STL→MILP backend (linear vehicles, predicates linear in the state;
   integer variables decide every disjunction globally);
-* ``nlp``: kinematic guess → the full-dynamics smooth-robustness NLP (anything else).
+* ``nlp``: MILP seed (the discrete choices of a double-integrator abstraction, chosen
+  globally; ``milp_seed``) → the full-dynamics smooth-robustness NLP (anything else);
+  ``kinematic`` forces the local kinematic guess as the seed instead.
 
 A forced name (``--backend NAME`` or the mission's ``backend = NAME``) is a chain name or a
 registry name (the chain that ends with it); a forced chain that cannot plan the problem
@@ -25,7 +27,8 @@ from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 CHAINS: dict[str, tuple[str, ...]] = {
     "team": ("team-milp", "team-refine"),
     "milp": ("milp",),
-    "nlp": ("kinematic", "casadi"),
+    "nlp": ("seed-milp", "casadi"),
+    "kinematic": ("kinematic", "casadi"),
 }
 DEFAULT = "nlp"  #: planned when no chain accepts: its diagnostics say why
 
@@ -38,8 +41,10 @@ class Chain:
 
 
 def names() -> list[str]:
-    """Every name ``--backend`` accepts: the chains, then the registry's backends."""
-    return list(CHAINS) + [n for n in registry() if n not in CHAINS]
+    """Every name ``--backend`` accepts: the chains, then the registry's backends that are
+    members of a chain (the replanning backends are not chosen by ``--backend``)."""
+    members = {n for c in CHAINS.values() for n in c}
+    return list(CHAINS) + [n for n in registry() if n not in CHAINS and n in members]
 
 
 def _instances(chain: str, quiet: bool) -> list:
@@ -96,7 +101,12 @@ def chain_record(chain: Chain, sols: list) -> dict:
     stages = []
     for b, s in zip(chain.backends, sols):
         st = s.solver.get("return_status", s.solver.get("status", ""))
-        stages.append({"backend": b.name, "status": str(st),
-                       "converged": bool(s.solver.get("converged", str(st) in
-                                                      ("optimal", "acceptable")))})
+        stage = {"backend": b.name, "status": str(st),
+                 "converged": bool(s.solver.get("converged", str(st) in
+                                                ("optimal", "acceptable")))}
+        if "seed" in s.solver:  # the MILP seed's record: grid, phases, time, ρ̂
+            stage["seed"] = s.solver["seed"]
+        stages.append(stage)
+    for b in chain.backends[len(sols):]:  # after a proof of infeasibility
+        stages.append({"backend": b.name, "status": "not_run", "converged": False})
     return {"name": chain.name, "forced": chain.forced, "stages": stages}

@@ -217,7 +217,7 @@ class TeamRefine(Backend):
         if standard is not None and standard is not plan:
             # the forward-speed stage started from the standard plan: a `compare` variant
             # without that term (paper B Fig. 11) is that plan, not a second solve
-            for name, variant in problem.mission.options.get("compare", []):
+            for name, variant in problem.comparisons:
                 if variant is not None and variant.forward_weight == 0:
                     sol.comparisons.append(Comparison(name, plan_channels(standard)))
         return sol

@@ -26,7 +26,7 @@ SPEC = "specs/bird_diverter_2x7.stl"
 
 def main(argv: list[str] | None = None) -> int:
     from stlc import pipeline
-    from stlc.backends.backup import BackupPlanner
+    from stlc.backends.backup import TakeoverBackend
     from stlc.replan.takeover import GOAL_S, TARGET_S, simulate_failure
     from stlc.semantics import model
 
@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         runs = []
         for _ in range(max(1, args.repeat)):
             res = simulate_failure(problem, sol, model.Failure(args.fail, t_fail, args.backup),
-                                   cfg, planner=BackupPlanner(), energy=args.energy)
+                                   cfg, planner=TakeoverBackend(), energy=args.energy)
             runs.append(res)
         ev = runs[-1].events[0]
         specs = specs or list(runs[-1].executed_robustness)

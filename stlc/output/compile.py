@@ -64,6 +64,8 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
 def summary(sol: Solution, outdir: str) -> None:
     energy = f"{sol.energy:.1f} J" if sol.energy == sol.energy else "not computed"
+    if len(sol.energy_by_vehicle) > 1:
+        energy += " (" + ", ".join(f"{k} {e:.1f} J" for k, e in sol.energy_by_vehicle.items()) + ")"
     print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
           f"smooth {sol.robustness_smooth:+.4f}  energy {energy}  "
           f"→ {outdir}/report.html")

@@ -38,10 +38,12 @@ def solution_json_dict(sol: Solution) -> dict:
         "robustness": {"exact": num(sol.robustness_exact),
                        "smooth": num(sol.robustness_smooth)},
         "specs": {
-            k: {**asdict(v), "robustness": num(v.robustness), "smooth": num(v.smooth)}
+            k: {**{f: x for f, x in asdict(v).items() if f != "binding_origin"},
+                "robustness": num(v.robustness), "smooth": num(v.smooth)}
             for k, v in sol.specs.items()
         },
         "energy": num(sol.energy),
+        "energy_by_vehicle": {k: num(v) for k, v in sol.energy_by_vehicle.items()},
         "timing": {k: round(float(v), 4) for k, v in sol.timing.items()},
         "solver": sol.solver,
         "smoothing": sol.smoothing,

@@ -15,8 +15,9 @@ from stlc.planning.solution import Solution, Verdict
 from stlc.planning.problem import PlanningProblem
 
 
-def hover_solution(problem: PlanningProblem, reason: str) -> Solution:
-    """Each vehicle of ``problem`` hovering at its start; ``reason`` goes to the notes."""
+def hover_solution(problem: PlanningProblem, reason: str, why: str | None = None) -> Solution:
+    """Each vehicle of ``problem`` hovering at its start; ``reason`` (and ``why``, else:
+    no solver produced a plan in time) go to the notes."""
     n, dt = problem.grid.n, problem.grid.dt
     ch: dict[str, np.ndarray] = {}
     energy = np.zeros(n)
@@ -38,8 +39,9 @@ def hover_solution(problem: PlanningProblem, reason: str) -> Solution:
                    solver={"name": "none", "iterations": 0, "return_status": "max_time",
                            "converged": False, "stages": []},
                    energy_profile=energy, feasible=False)
-    sol.notes.append(f"{reason}: no solver produced a plan in time, so the plan is every "
-                     "vehicle hovering at its start (not a planned trajectory)")
+    sol.notes.append(f"{reason}: " + (why or "no solver produced a plan in time, so the plan "
+                                      "is every vehicle hovering at its start (not a planned "
+                                      "trajectory)"))
     return sol
 
 

@@ -14,13 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from stlc import vehicles
-from stlc.semantics import model
 
 HOLD_TOL = 0.05  # as stlc.backends.flyable.HOLD_TOL
 SLACK = 1e-3  # the planner meets its rows to IPOPT's tolerance, the check allows rounding
 
 
-def end_state(mission: model.Mission, vehicle_list: list, channels: dict) -> dict[str, dict]:
+def end_state(vehicle_list: list, channels: dict) -> dict[str, dict]:
     """Per vehicle: ``holdable``, ``residual`` (max |f(x_N, 0)|), ``speed`` (m/s),
     ``rate`` (rad/s, multirotors) and ``accel`` (|v̇| at zero input, m/s²)."""
     out: dict[str, dict] = {}
@@ -45,9 +44,10 @@ def end_state(mission: model.Mission, vehicle_list: list, channels: dict) -> dic
     return out
 
 
-def flag(mission: model.Mission, ends: dict[str, dict]) -> list[str]:
-    """Notes for the vehicles whose final state cannot be held (none with ``end = free``)."""
-    if str(mission.options.get("end", "hover")) == "free":
+def flag(hold_end: bool, ends: dict[str, dict]) -> list[str]:
+    """Notes for the vehicles whose final state cannot be held (none when the problem does
+    not ask for a holdable end: ``end = free``)."""
+    if not hold_end:
         return []
     notes = []
     for name, e in ends.items():

@@ -1,12 +1,16 @@
 """The planning problem: one frozen object between the checked ``Program`` and any backend.
 
 A ``PlanningProblem`` says *what* to plan — the team, the time grid, the requirement in
-negation normal form, the named specs reported for the mission, the objective, start-state
-overrides, channels held fixed (e.g. other drones' plans, which appear only in the specs
-that read them), a time window, and an optional seed ``Solution`` from an earlier backend
-of the chain.  Backends read it and never the AST; replanning and team seeds are expressed
-as new problems (``dataclasses.replace`` or the ``with_*`` helpers), never as flags on a
-backend.
+negation normal form, the named specs reported for the mission, the objective, the threshold
+κ, the smoothing, the discrete model (``integrator``), whether the end state must be
+holdable, the comparison variants, start-state overrides, channels held fixed (e.g. other
+drones' plans, which appear only in the specs that read them), a time window, and an
+optional seed ``Solution`` from an earlier backend of the chain.  Backends read these typed
+fields and never the mission as written (``mission`` is kept for its name, span and the
+declarations of the passes after planning: risk, replanning); a problem derived with
+``dataclasses.replace`` (another requirement, threshold, objective, start state) is planned
+as it says.  Replanning and team seeds are expressed as new problems (``replace`` or the
+``with_*`` helpers), never as flags on a backend.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from stlc import vehicles
 from stlc.semantics import ir, model, nnf
 from stlc.semantics.specs import NamedSpec, mission_specs
 from stlc.semantics.timegrid import TimeGrid
@@ -35,7 +40,7 @@ def _frozen(d: Mapping | None = None) -> Mapping:
 @dataclass(frozen=True)
 class PlanningProblem:
     program: model.Program  # vehicles, scenario, nominal parameters
-    mission: model.Mission  # the declaration (options, risk, replan, compare variants)
+    mission: model.Mission  # the declaration: name, span, risk, replan (not read to plan)
     team: tuple[str, ...]
     grid: TimeGrid
     requirement: ir.Formula  # in negation normal form
@@ -43,9 +48,20 @@ class PlanningProblem:
     objective: model.Objective
     threshold: float  # κ
     smoothing: model.Smoothing
+    integrator: str = "rk4"  # the discrete model: "rk4" or "euler"
+    hold_end: bool = True  # the last sample must be a state the vehicle can hold
+    max_iter: int = 1000  # the NLP's iteration limit per stage
+    #: other objectives planned for comparison (name, objective; None: not plannable)
+    comparisons: tuple[tuple[str, model.Objective | None], ...] = ()
+    time_limit: float | None = None  # s of wall time for a solve (`--time-limit` wins)
+    #: a vehicle's start state (its model's state vector) other than the declared one
     start_states: Mapping[str, np.ndarray] = field(default_factory=_frozen)
     fixed_channels: Mapping[str, np.ndarray] = field(default_factory=_frozen)
     window: tuple[float, float] | None = None  # (start, end) s of the part being planned
+    #: a team problem's targets to install and refilling stations to use (names; None: all
+    #: the scenario's) — a takeover's pending targets and free stations
+    targets: tuple[str, ...] | None = None
+    stations: tuple[str, ...] | None = None
     #: the ``--set`` values of this instance (SI, by name as written), already applied to
     #: ``program`` (its params and vehicle starts are the NLP's parameters: nlp_cache.bind)
     values: Mapping[str, float] = field(default_factory=_frozen)
@@ -55,8 +71,19 @@ class PlanningProblem:
     def params(self) -> dict[str, float]:
         return self.program.params
 
+    @property
+    def name(self) -> str:
+        return self.mission.name
+
     def vehicles(self) -> list[model.Vehicle]:
         return [self.program.vehicles[n] for n in self.team]
+
+    def start_state(self, name: str) -> np.ndarray:
+        """The vehicle's start state: the problem's override, else the declared one."""
+        if name in self.start_states:
+            return np.asarray(self.start_states[name], dtype=float)
+        v = self.program.vehicles[name]
+        return np.asarray(vehicles.model_of(v).initial_state(v), dtype=float)
 
     def with_seed(self, seed: Solution | None) -> PlanningProblem:
         return replace(self, seed=seed)
@@ -78,4 +105,10 @@ def from_mission(program: model.Program, mission: model.Mission, *,
         program=program, mission=mission, team=tuple(mission.vehicles), grid=grid,
         requirement=nnf.normalize(mission.requirement),
         specs=_frozen(mission_specs(program, mission)), objective=mission.objective,
-        threshold=mission.threshold, smoothing=mission.smoothing, values=_frozen(values))
+        threshold=mission.threshold, smoothing=mission.smoothing,
+        integrator=str(mission.options.get("integrator", "rk4")),
+        hold_end=str(mission.options.get("end", "hover")) != "free",
+        max_iter=int(mission.options.get("max_iter", 1000)),  # type: ignore[call-overload]
+        comparisons=tuple(mission.options.get("compare") or ()),  # type: ignore[arg-type]
+        time_limit=mission.options.get("time_limit"),  # type: ignore[arg-type]
+        values=_frozen(values))

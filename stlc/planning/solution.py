@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stlc.semantics.origin import Origin
+
 
 class Verdict(enum.StrEnum):
     """What the exact monitor says of a plan (``Solution.status``)."""
@@ -37,6 +39,8 @@ class SpecResult:
     binding_predicate: str = ""  # label of the predicate that decides the robustness
     line: int = 0  # source line of the spec definition
     binding_line: int = 0  # source line of that predicate (from its span; 0 if unknown)
+    #: what that predicate is (a box face, a range side, negated or not), as data
+    binding_origin: Origin | None = None
 
 
 @dataclass
@@ -79,6 +83,8 @@ class Solution:
     notes: list[str] = field(default_factory=list)
     #: energy of each sample (J, summing to ``energy``), None without an energy model
     energy_profile: np.ndarray | None = None
+    #: energy per vehicle (J), for the vehicles with an energy model (set by verification)
+    energy_by_vehicle: dict[str, float] = field(default_factory=dict)
     comparisons: list[Comparison] = field(default_factory=list)
     #: limits drawn on the report's signal plots, from the vehicles and the predicates
     bounds: dict[str, object] = field(default_factory=dict)

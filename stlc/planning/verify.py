@@ -106,10 +106,14 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
             line=spec.span.line,
-            binding_line=pred.span.line if pred is not None and pred.span.known else 0)
+            binding_line=pred.span.line if pred is not None and pred.span.known else 0,
+            binding_origin=pred.origin if pred is not None else None)
     status = sol.status
-    if status != Verdict.SOLVER_FAILED:
-        status = Verdict.SATISFIED if exact >= kappa and sol.feasible else Verdict.VIOLATED
+    satisfied = exact >= kappa and sol.feasible
+    if status == Verdict.INFEASIBLE and not satisfied:
+        pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
+    elif status != Verdict.SOLVER_FAILED:
+        status = Verdict.SATISFIED if satisfied else Verdict.VIOLATED
     notes = []
     if 0 <= exact < kappa:
         notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
@@ -128,16 +132,71 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
 
 def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     """``judge`` the plan and write the verdict onto ``sol`` (returned); then whether the
-    vehicles can hold its final state (``stlc.planning.holdable``), and energy "not
-    computed" (NaN → null) when no vehicle has an energy model (never a made-up 0.0 J)."""
+    vehicles can hold its final state (``stlc.planning.holdable``), and its energy."""
     from stlc.planning.holdable import end_state, flag
 
     sol = judge(problem, sol).apply(sol)
-    sol.end_state = end_state(problem.mission, problem.vehicles(), sol.channels)
-    if not any(vehicles.model_of(v).has_rotor_energy(v) for v in problem.vehicles()):
-        sol.energy, sol.energy_profile = float("nan"), None
-    sol.notes.extend(flag(problem.mission, sol.end_state))
+    sol.end_state = end_state(problem.vehicles(), sol.channels)
+    plan_energy(problem, sol)
+    sol.notes.extend(flag(problem.hold_end, sol.end_state))
+    sol.notes.extend(corner_cuts(problem, sol.channels, sol.times))
     return sol
+
+
+def corner_cuts(problem: PlanningProblem, channels: dict, times) -> list[str]:
+    """Notes for the vehicles whose straight path between two samples comes closer to a
+    world-frame obstacle than the vehicle's radius (or touches it), although the samples
+    themselves are what the monitor judges (``stlc.analysis.clearance``: exact segment-box
+    distance)."""
+    from stlc.analysis.clearance import segment_box_distance
+
+    obstacles = [r for r in problem.program.scenario.by_kind("obstacle") if r.box.frame is None]
+    notes = []
+    for v in problem.vehicles() if obstacles else []:
+        cols = [channels.get(f"{v.name}.pos.{a}") for a in "xyz"]
+        if any(c is None for c in cols) or len(cols[0]) < 2:
+            continue
+        P = np.stack([np.asarray(c, dtype=float) for c in cols], axis=1)
+        r = float(getattr(v, "radius", 0.0))
+        worst = None
+        for ob in obstacles:
+            d = segment_box_distance(P[:-1], P[1:], ob.box.lo, ob.box.hi)
+            k = int(np.argmin(d))
+            if (d[k] < r - 1e-9 or d[k] <= 1e-12) and (worst is None or d[k] < worst[0]):
+                worst = (float(d[k]), k, ob.name)
+        if worst is not None:
+            d, k, name = worst
+            t = np.asarray(times, dtype=float)
+            notes.append(f"{v.name} cuts the corner of obstacle `{name}` between samples: the "
+                         f"straight segment from t = {t[k]:g} s to {t[k + 1]:g} s comes "
+                         f"{d:.3f} m from it (radius {r:g} m), although the samples keep it; "
+                         "the monitor judges samples only: a finer `step` or a larger "
+                         "`radius` keeps the segments clear")
+    return notes
+
+
+def plan_energy(problem: PlanningProblem, sol: Solution) -> None:
+    """Each vehicle's energy recomputed from the plan's states by its model (a multirotor:
+    paper A eq. 5; a point mass that declares its aerodynamic data: paper B's power model,
+    ``stlc.vehicles.power``) into ``sol.energy_by_vehicle``; the total and its profile only
+    when every vehicle has a model, else "not computed" (NaN → null, never a made-up 0.0 J)."""
+    dt, profiles = problem.grid.dt, {}
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        if vm.has_rotor_energy(v) and all(c in sol.channels for c in vm.state_channels(v)):
+            ins = vm.input_channels(v)
+            U = (np.stack([np.asarray(sol.channels[c], dtype=float) for c in ins], axis=1)
+                 if ins and all(c in sol.channels for c in ins) else None)
+            X = vehicles.state_matrix(v, sol.channels)
+            profiles[v.name] = np.asarray(vm.energy_profile(v, X, dt, U)
+                                          if vehicles.takes(vm.energy_profile, "U")
+                                          else vm.energy_profile(v, X, dt), dtype=float)
+    sol.energy_by_vehicle = {k: float(p.sum()) for k, p in profiles.items()}
+    if profiles and len(profiles) == len(problem.vehicles()):
+        sol.energy_profile = np.sum(list(profiles.values()), axis=0)
+        sol.energy = float(sol.energy_profile.sum())
+    else:
+        sol.energy, sol.energy_profile = float("nan"), None
 
 
 def _peak(ch: dict, key: str) -> float:

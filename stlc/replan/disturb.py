@@ -180,7 +180,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
     dt, n = grid.dt, grid.n
     disturbances = sorted(disturbances, key=lambda d: d.time)
     _check(problem, disturbances, cfg)
-    integrator = str(problem.mission.options.get("integrator", "rk4"))
+    integrator = problem.integrator
     tracks: dict[str, _Track] = {}
     for v in problem.vehicles():
         vm = vehicles.model_of(v)

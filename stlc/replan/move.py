@@ -17,7 +17,7 @@ exact robustness at the new pose is ≥ κ; the record says what the decision wa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,7 +45,7 @@ def moved_program(program, move: Move):
     return apply_values(program, sets)
 
 
-def _risk(program, mission, channels, times) -> dict | None:
+def _risk(program, mission, channels, times, problem) -> dict | None:
     """VaR/CVaR of the plan at the (moved) pose under the mission's risk cases."""
     if mission.risk is None:
         return None
@@ -53,7 +53,7 @@ def _risk(program, mission, channels, times) -> dict | None:
     from stlc.planning.solution import Solution
 
     s = Solution(mission.name, "satisfied", 0.0, 0.0, {}, 0.0, times, channels)
-    risk_json, _ = run_risk(program, mission, s)
+    risk_json, _ = run_risk(program, mission, s, problem=problem)
     return risk_json
 
 
@@ -69,8 +69,9 @@ def _risk_ok(risk: dict | None) -> bool | None:
 
 def simulate_move(problem, sol, move: Move, library: str | None = None, *,
                   replanner) -> SimulationResult:
-    """``replanner(program, mission, grid, flown, k_e, library, pose) -> (channels, info)``
-    plans the rest of the mission (the pipeline passes ``backends.move_replan.replan_rest``)."""
+    """``replanner(problem, flown, k_e, library, pose) -> (channels, info)`` plans the rest
+    of the mission (the problem at the new pose; the pipeline passes
+    ``backends.move_replan.replan_rest``)."""
     from stlc.analysis import monitor
 
     m, grid = problem.mission, problem.grid
@@ -79,7 +80,7 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
     dt, times = grid.dt, grid.times()
     k_e = min(int(np.ceil(move.time / dt - 1e-9)), grid.n - 1)
     before = float(monitor.robustness(problem.requirement, dt, sol.channels, program.params))
-    risk = _risk(program, m, sol.channels, times)
+    risk = _risk(program, m, sol.channels, times, problem)
     risk_ok = _risk_ok(risk)
     replan = before < kappa  # the risk figures are recorded (no risk level is declared)
     vehicle = problem.team[0]
@@ -94,7 +95,8 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
     if replan:
         pose = {f"{move.human}.{f}.{a}": v[i] for f, v in (("pos", move.pos), ("att", move.att))
                 if v is not None for i, a in enumerate("xyz")}
-        new, info = replanner(program, m, grid, sol.channels, k_e, library, pose)
+        new, info = replanner(replace(problem, program=program), sol.channels, k_e, library,
+                              pose)
         ev.solve_s = info["solve_s"]
         after = float(monitor.robustness(problem.requirement, dt, new, program.params))
         ev.status = info["status"]

@@ -25,9 +25,11 @@ Semantics (the decisions the paper leaves open):
   at t_fail, when the drone leaves the target); one in progress (shorter) does not, and its
   target is pending.
 * **The backup** waits at its start, at rest, until t0, carrying its full capacity; on
-  [t0, T_N] it flies the plan of ``stlc.backends.backup`` (the team MILP, seed and
-  refinement on the reduced problem, the other drones' plans and the parked failed drone
-  fixed in the separation rows).
+  [t0, T_N] it flies the plan of the takeover backend (``stlc.backends.backup``: the team
+  MILP, seed and refinement), run through ``run_chain`` on the takeover's
+  ``PlanningProblem``: the backup alone, the window [t0, T_N], the other drones' plans and
+  the parked failed drone as fixed channels (in the separation rows), the pending targets
+  and the free stations.
 * **Judgement.** The executed trajectory (the other drones' plans, the failed drone then
   parked, the backup) is verified like a plan (``stlc.planning.verify``: derived signals and
   the payload recomputed from the positions) against the mission checked again with the
@@ -54,7 +56,7 @@ import time
 
 import numpy as np
 
-from stlc.backends.base import SolverStatus
+from stlc.backends.base import SolverStatus, run_chain
 from stlc.replan.result import ReplanEvent, SimulationResult
 from stlc.planning.takeover import BackupPlan, Fixed
 from stlc.semantics import model
@@ -200,8 +202,8 @@ def simulate_failure(problem, plan, failure: model.Failure,
 
     ``energy`` adds the mission's forward-speed term (eq. 9) to the backup's refinement; off
     by default: that second IPOPT solve roughly doubles the replan time for a cost term,
-    not a spec.  ``planner`` plans the backup (``stlc.backends.backup.BackupPlanner``, given
-    by the pipeline)."""
+    not a spec.  ``planner`` is the backend that plans the backup
+    (``stlc.backends.backup.TakeoverBackend``, given by the pipeline)."""
     cfg = cfg if cfg is not None else model.ReplanConfig()
     backup = validate(problem, plan, failure, cfg)
     f, b = failure.vehicle, backup.name
@@ -245,16 +247,12 @@ def simulate_failure(problem, plan, failure: model.Failure,
         fdr = next(dr for dr in base.drones if dr.name == f)
         zero = np.zeros((n - k0, 3))
         fixed.append(Fixed(fdr, np.tile(centre(park_box), (n - k0, 1)), zero, zero))
-        obj = problem.objective
-        eta = obj.forward_weight if energy else 0.0
-        v_star = planner.forward_speed(problem) if eta > 0 else None
         w0, c0 = time.perf_counter(), time.process_time()
         stations = free_stations(base, park, fixed)
         event.detail["stations"] = stations
-        bp = planner.plan(base, backup, pending, stations, fixed, float(times[-1] - t0),
-                         lam=problem.smoothing.lam, kappa=problem.threshold,
-                         eta=eta if v_star is not None else 0.0, v_star=v_star,
-                         milp_budget_s=max(cfg.takeover_delay, 1.0))
+        sub = takeover_problem(problem, backup.name, fixed, k0, (t0, float(times[-1])),
+                               pending, stations, energy, max(cfg.takeover_delay, 1.0))
+        bp = backup_plan(run_chain(sub, [planner])[0], backup.name)
         event.solve_s = time.perf_counter() - w0
         event.detail.update(cpu_s=time.process_time() - c0, **_detail(bp, backup))
         event.status = str(bp.status)
@@ -279,6 +277,41 @@ def simulate_failure(problem, plan, failure: model.Failure,
         mission=problem.mission.name, times=times, nominal=dict(plan.channels),
         executed=executed, events=[event], budget=GOAL_S, executed_robustness=rob,
         threshold=problem.threshold, failures=[failure], notes=notes)
+
+
+def takeover_problem(problem, backup: str, fixed: list[Fixed], k0: int,
+                     window: tuple[float, float], pending: list[str], stations: list[str],
+                     energy: bool, budget_s: float):
+    """The backup's planning problem: the backup alone on ``window``, the ``fixed`` drones'
+    trajectories (from sample ``k0``) as fixed channels on the mission grid, in order, the
+    pending targets and free stations; the forward-speed term only with ``energy``."""
+    from dataclasses import replace
+    from types import MappingProxyType
+
+    n = problem.grid.n
+    chans: dict[str, np.ndarray] = {}
+    for fx in fixed:
+        for f, arr in (("pos", fx.pos), ("vel", fx.vel), ("acc", fx.acc)):
+            for j, a in enumerate("xyz"):
+                full = np.zeros(n)
+                full[k0:k0 + len(arr)] = arr[:, j]
+                chans[f"{fx.drone.name}.{f}.{a}"] = full
+    obj = problem.objective if energy else replace(problem.objective, forward_weight=0.0)
+    return replace(problem, team=(backup,), window=window, seed=None,
+                   fixed_channels=MappingProxyType(chans), targets=tuple(pending),
+                   stations=tuple(stations), objective=obj, time_limit=float(budget_s))
+
+
+def backup_plan(sol, backup: str) -> BackupPlan:
+    """The ``BackupPlan`` of the takeover backend's ``Solution`` (channels on the window)."""
+    stack = None
+    if f"{backup}.pos.x" in sol.channels:
+        def stack(f):
+            return np.stack([np.asarray(sol.channels[f"{backup}.{f}.{a}"]) for a in "xyz"], 1)
+    return BackupPlan(SolverStatus(sol.solver["status"]), list(sol.routes.get(backup, [])),
+                      *((stack("pos"), stack("vel"), stack("acc")) if stack else (None,) * 3),
+                      stats=dict(sol.solver.get("stats", {})),
+                      message=str(sol.solver.get("message", "")))
 
 
 def _detail(bp: BackupPlan, backup: Drone) -> dict:

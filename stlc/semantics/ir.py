@@ -26,6 +26,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from stlc.diagnostics import Span
+from stlc.semantics.origin import Origin
 
 NO_SPAN = Span.none()
 
@@ -133,15 +134,17 @@ class Bound:
 class Pred:
     """Atomic predicate ``expr >= 0``; its robustness is the value of ``expr``.
 
-    ``label`` is the human-readable source text (e.g. ``"uav1.pos.z <= 2.5"``) used by
-    reports to say which predicate binds; ``bound`` keeps the structure of a predicate that
-    compares a signal with a constant.
+    ``label`` is the human-readable source text (e.g. ``"uav1.pos.z <= 2.5"``) shown as
+    written; ``bound`` keeps the structure of a predicate that compares a signal with a
+    constant; ``origin`` what the checker made it from (a box face, a range side, negated or
+    not: ``stlc.semantics.origin``) — passes read these fields, never the label.
     """
 
     expr: Expr
     label: str = ""
     span: Span = field(default=NO_SPAN, compare=False)
     bound: Bound | None = field(default=None, compare=False)
+    origin: Origin | None = field(default=None, compare=False)
     _h: int = field(default=0, init=False, repr=False, compare=False)
 
 

@@ -70,11 +70,12 @@ def _nnf(f: Formula, neg: bool, memo: dict) -> Formula:
 
 def _nnf_node(f: Formula, neg: bool, memo: dict) -> Formula:
     match f:
-        case Pred(expr, label, span, bound):
+        case Pred(expr, label, span, bound, origin):
             if not neg:
                 return f
             return Pred(negate_expr(expr), _negate_label(label), span,
-                        bound.negated() if bound is not None else None)
+                        bound.negated() if bound is not None else None,
+                        origin.negation() if origin is not None else None)
         case TrueF(span):
             return FalseF(span) if neg else f
         case FalseF(span):

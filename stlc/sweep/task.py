@@ -76,8 +76,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
     key = (mission, "")
     lib = None
     if isinstance(chain[-1], CasadiNlp):
-        integrator = str(m.options.get("integrator", "rk4"))
-        key = (mission, structure_key(program, m, problem.grid, integrator))
+        key = (mission, structure_key(problem))
         lib = _LIBRARIES.setdefault(key, PlanLibrary())
         near = lib.nearest(vals) if warm else None
         if near is not None:

@@ -30,10 +30,13 @@ class VehicleModel(Protocol):
     planner's input bounds), ``has_rotor_energy`` (an energy model exists),
     ``carries_payload`` (a team drone with a recomputed payload), ``axis_limits``
     (per-axis limits drawn by the report, e.g. {"vel": v_max, "acc": a_max}),
-    ``rotor_forces`` ((force_min, force_max, c_f) of rotors, or None) and ``linear_model``
-    (``(A, B)`` of linear dynamics: continuous time ẋ = A x + B u without ``dt``, the
-    exact zero-order-hold discretisation x+ = A x + B u with ``dt``; ``None`` for a
-    nonlinear model)."""
+    ``guess`` (a state/input guess along a kinematic path; ``needed(channel)``, when given,
+    is the boolean mask of samples at which the requirement reads that channel,
+    ``stlc.semantics.reads``), ``energy_profile`` (J per sample; a point mass reads its
+    accelerations from ``U`` when given), ``rotor_forces`` ((force_min, force_max, c_f) of
+    rotors, or None) and ``linear_model`` (``(A, B)`` of linear dynamics: continuous time
+    ẋ = A x + B u without ``dt``, the exact zero-order-hold discretisation x+ = A x + B u
+    with ``dt``; ``None`` for a nonlinear model)."""
 
     kind: str  # the name written after `vehicle NAME :` in a file
 
@@ -50,10 +53,11 @@ class VehicleModel(Protocol):
     def derived_channels(self, v, X: np.ndarray) -> dict[str, np.ndarray]: ...
     def derived_channels_sx(self, v, x: ca.SX, eps: float = 0.0) -> dict[str, ca.SX]: ...
     def energy_terms(self, v, x: ca.SX, dt: float) -> ca.SX | None: ...
-    def energy_profile(self, v, X: np.ndarray, dt: float) -> np.ndarray: ...
+    def energy_profile(self, v, X: np.ndarray, dt: float, U: np.ndarray | None = None
+                       ) -> np.ndarray: ...
     def kinematic_limits(self, v) -> tuple[np.ndarray, np.ndarray]: ...
-    def guess(self, v, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
-              ) -> tuple[np.ndarray, np.ndarray]: ...
+    def guess(self, v, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float,
+              needed=None) -> tuple[np.ndarray, np.ndarray]: ...
     def plot_bounds(self, v) -> dict[str, list[float]]: ...
     # asked instead of comparing the kind (issue 18):
     def formula_fields(self, v) -> dict[str, FormulaField]: ...
@@ -80,6 +84,17 @@ def model_of(v: model.Vehicle) -> VehicleModel:
         return _REGISTRY[type(v)]
     except KeyError:
         raise TypeError(f"no vehicle model registered for {type(v).__name__}") from None
+
+
+def takes(method, name: str) -> bool:
+    """Does a model's method accept the optional parameter ``name``?  (A model written
+    before ``guess(…, needed)`` or ``energy_profile(…, U)`` existed does not.)"""
+    import inspect
+
+    try:
+        return name in inspect.signature(method).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def kinds() -> list[str]:

@@ -95,16 +95,17 @@ class MultirotorModel:
     def energy_terms(self, v: Multirotor, x: ca.SX, dt: float) -> ca.SX:
         return dynamics.energy_terms(v, x, dt)
 
-    def energy_profile(self, v: Multirotor, X: np.ndarray, dt: float) -> np.ndarray:
+    def energy_profile(self, v: Multirotor, X: np.ndarray, dt: float,
+                       U: np.ndarray | None = None) -> np.ndarray:
         return np.array([dynamics.energy(v, X[k:k + 1], dt, normalize=False)
                          for k in range(X.shape[0])])
 
     def kinematic_limits(self, v: Multirotor) -> tuple[np.ndarray, np.ndarray]:
         return np.full(3, GUESS_VEL), np.full(3, GUESS_ACC)
 
-    def guess(self, v: Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
-              ) -> tuple[np.ndarray, np.ndarray]:
-        return multirotor_guess(v, P, V, A, dt)
+    def guess(self, v: Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float,
+              needed=None) -> tuple[np.ndarray, np.ndarray]:
+        return multirotor_guess(v, P, V, A, dt, needed)
 
     def kinematic_envelope(self, v: Multirotor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Sound bounds of every flyable trajectory: no speed bound (inf), and per axis an
@@ -169,17 +170,29 @@ class MultirotorModel:
         return None  # rigid-body dynamics: nonlinear
 
 
-def _yaw_along_course(V: np.ndarray, yaw0: float, dt: float) -> np.ndarray:
-    """Heading that follows the horizontal direction of motion where the vehicle moves
-    (> 0.1 m/s), holds it otherwise, unwrapped and smoothed (1 s moving average)."""
+def _yaw_guess(V: np.ndarray, yaw0: float, dt: float, needed: np.ndarray | None
+               ) -> np.ndarray:
+    """The guess's heading: along the horizontal direction of motion only at the samples
+    where the requirement reads the heading (``needed``) and the vehicle moves (> 0.1 m/s),
+    on the branch nearest to the heading before (so the first turn is the shorter way
+    round from the start heading); linear between those samples and from the start, held
+    after the last one (held throughout when nothing reads the heading), then smoothed
+    (1 s moving average).  Following the course everywhere made the heading wind up along
+    the whole path (handover_left: +226° where −134° meets the comfort spec)."""
     n = V.shape[1]
-    yaw = np.empty(n)
-    cur = yaw0
-    for k in range(n):
-        if np.hypot(V[0, k], V[1, k]) > 0.1:
-            c = np.arctan2(V[1, k], V[0, k])
-            cur = cur + np.arctan2(np.sin(c - cur), np.cos(c - cur))
-        yaw[k] = cur
+    anchors = np.hypot(V[0], V[1]) > 0.1
+    anchors &= np.zeros(n, dtype=bool) if needed is None else np.asarray(needed, dtype=bool)
+    anchors[0] = False  # the start heading is fixed
+    ks = np.flatnonzero(anchors)
+    if ks.size == 0:
+        return np.full(n, float(yaw0))
+    course = np.arctan2(V[1, ks], V[0, ks])
+    vals = np.empty(ks.size)
+    cur = float(yaw0)
+    for i, c in enumerate(course):
+        cur = cur + np.arctan2(np.sin(c - cur), np.cos(c - cur))
+        vals[i] = cur
+    yaw = np.interp(np.arange(n), np.concatenate([[0], ks]), np.concatenate([[yaw0], vals]))
     w = max(1, int(round(1.0 / dt)))
     pad = np.concatenate([np.full(w, yaw[0]), yaw, np.full(w, yaw[-1])])
     smooth = np.convolve(pad, np.ones(2 * w + 1) / (2 * w + 1), mode="same")[w:-w]
@@ -188,12 +201,15 @@ def _yaw_along_course(V: np.ndarray, yaw0: float, dt: float) -> np.ndarray:
 
 
 def multirotor_guess(v: Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray,
-                     dt: float) -> tuple[np.ndarray, np.ndarray]:
+                     dt: float, needed=None) -> tuple[np.ndarray, np.ndarray]:
     """A nearly dynamically consistent state/input guess along a kinematic path: roll and
-    pitch level, yaw along the course, rotor forces from the allocation that realise the
+    pitch level, yaw along the course where the requirement reads the heading
+    (``_yaw_guess``; ``needed(channel)`` is the mask of samples at which it reads a
+    channel, ``stlc.semantics.reads``), rotor forces from the allocation that realise the
     path's acceleration and yaw acceleration (least squares, clipped to the force range)."""
     n = P.shape[1]
-    yaw = _yaw_along_course(V, v.start_att[2], dt)
+    mask = None if needed is None else needed(f"{v.name}.att.z")
+    yaw = _yaw_guess(V, v.start_att[2], dt, mask)
     yaw_rate = np.gradient(yaw, dt)
     yaw_acc = np.gradient(yaw_rate, dt)
     W = geometry.wrench_matrix(v.rotors, v.c_f, v.c_tau)

@@ -1,6 +1,7 @@
 """The point-mass model (paper B): state (p, v), input a, per-axis velocity and
 acceleration bounds; a team drone may carry a payload (a derived signal, see
-``stlc.team.payload``)."""
+``stlc.team.payload``).  A drone that declares its mass and aerodynamic data has the energy
+of paper B's power model (``stlc.vehicles.power``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from stlc.lazy import lazy
 ca = lazy("casadi")  # CasADi runs only when a plan is built (``stlc.lazy``)
 import numpy as np
 
-from stlc.vehicles import dynamics
+from stlc.vehicles import dynamics, power
 from stlc.vehicles.declared import AXES, FormulaField, PointMass
 
 POS, VEL = slice(0, 3), slice(3, 6)
@@ -67,14 +68,21 @@ class PointMassModel:
     def energy_terms(self, v: PointMass, x: ca.SX, dt: float) -> None:
         return None  # no energy model: paper B's planner uses the forward-speed term
 
-    def energy_profile(self, v: PointMass, X: np.ndarray, dt: float) -> np.ndarray:
-        return np.zeros(np.atleast_2d(X).shape[0])
+    def energy_profile(self, v: PointMass, X: np.ndarray, dt: float,
+                       U: np.ndarray | None = None) -> np.ndarray:
+        """dt · P_k of paper B's power model (``stlc.vehicles.power``) when the drone
+        declares its mass and aerodynamic data, else zeros (``has_rotor_energy`` False);
+        the thrust from the plan's accelerations ``U`` (n × 3) when given."""
+        X = np.atleast_2d(X)
+        if not self.has_rotor_energy(v):
+            return np.zeros(X.shape[0])
+        return power.energy_profile(v.mass, v.aero, X[:, VEL], dt, U)
 
     def kinematic_limits(self, v: PointMass) -> tuple[np.ndarray, np.ndarray]:
         return np.array(v.vel_max, dtype=float), np.array(v.acc_max, dtype=float)
 
-    def guess(self, v: PointMass, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float
-              ) -> tuple[np.ndarray, np.ndarray]:
+    def guess(self, v: PointMass, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float,
+              needed=None) -> tuple[np.ndarray, np.ndarray]:
         return np.vstack([P, V]), A
 
     def kinematic_envelope(self, v: PointMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -100,7 +108,7 @@ class PointMassModel:
         return U
 
     def has_rotor_energy(self, v: PointMass) -> bool:
-        return False
+        return v.aero is not None and v.mass is not None  # paper B's power model
 
     def carries_payload(self, v: PointMass) -> bool:
         return True

@@ -3,19 +3,27 @@
 Regions in a human's frame are drawn at the human's nominal pose.  Regions that the mission
 never mentions (e.g. the approach corridors of the file's other missions) are kept but
 hidden (``visible: False``; the page shows them as toggles in the 3-D legend only).
+
+A region's colour role comes from its declaration (workspace, obstacle, target, station,
+home, a free region, a human's region) and, for a human's region, from how the mission
+uses it — read from the origins of the predicates (``region_uses``), never from words in
+its name: a human's region the mission only keeps out of is no-fly (the papers' "behind"),
+one it must stay in for a while (a membership under an ``always`` of positive length, or
+the left side of an ``until``) and never keeps out of is a visibility region, any other
+is part of an approach.
 """
 
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 
 import numpy as np
 
 from stlc.planning.solution import Solution
-from stlc.semantics import ir
+from stlc.semantics import ir, nnf
 from stlc.semantics.model import Box, Human, Mission, Program
+from stlc.semantics.origin import FACE
 
 from .common import channel, drone_color, fmt, fmt_vec, nums, vehicles
 from .predicates import mentioned
@@ -96,28 +104,56 @@ def hull_xy(points: np.ndarray) -> list[list[float | None]]:
     return [nums(p) for p in ring]
 
 
-def region_role(name: str, kind: str, frame: str | None = None) -> str:
-    """Colour role of a region: by kind first, then by the words in its name (without a
-    ``human.`` prefix); any other region attached to a human is part of an approach."""
+def region_uses(formulas: list[ir.Formula]) -> dict[str, set[str]]:
+    """Per declared region, how the formulas (taken to negation normal form) use its
+    membership: ``out`` (kept out of), ``stay`` (inside over an interval: under an
+    ``always`` of positive length or on the left of an ``until``/``release``), ``in``
+    (inside at some instant).  Read from the predicates' origins (``ir.Pred.origin``)."""
+    uses: dict[str, set[str]] = {}
+    seen: set[tuple[int, bool]] = set()
+
+    def walk(f: ir.Formula, stay: bool) -> None:
+        if (id(f), stay) in seen:
+            return
+        seen.add((id(f), stay))
+        match f:
+            case ir.Pred(origin=o) if o is not None and o.kind == FACE and o.region:
+                use = "out" if o.negated else "stay" if stay else "in"
+                uses.setdefault(o.region, set()).add(use)
+            case ir.Always(lo, hi, arg):
+                walk(arg, stay or hi > lo)
+            case ir.Eventually(_, _, arg):
+                walk(arg, False)
+            case ir.Until(_, _, a, b) | ir.Release(_, _, a, b):
+                walk(a, True)
+                walk(b, False)
+            case _:
+                for g in ir.children(f):
+                    walk(g, stay)
+
+    normal = [nnf.normalize(f) for f in formulas]  # kept alive: ``seen`` holds their ids
+    for f in normal:
+        walk(f, False)
+    return uses
+
+
+def region_role(kind: str, frame: str | None = None, uses: set[str] | frozenset = frozenset()
+                ) -> str:
+    """Colour role of a region: by its declared kind, then (a human's region, ``frame``)
+    by the mission's ``uses`` of it (``region_uses``); see the module docstring."""
     if kind == "workspace":
         return "workspace"
     if kind == "obstacle":
         return "nofly"
-    if kind in ("home", "station"):
+    if kind in ("home", "station", "target"):
         return kind
-    low = name.lower().rsplit(".", 1)[-1]
-    flat = re.sub(r"[^a-z]", "", low)
-    words = set(re.split(r"[^a-z]+", low))
-    if "behind" in flat or "nofly" in flat:
+    if frame is None:
+        return "region"
+    if uses and uses <= {"out"}:
         return "nofly"
-    if "vis" in flat:
+    if "stay" in uses and "out" not in uses:
         return "visibility"
-    if ("handover" in flat or "approach" in flat or words & {"ho", "pr"}
-            or re.search(r"(^|[^a-z])(ho|pr)\d", low) or flat.startswith("pref")):
-        return "approach"
-    if kind == "target":
-        return "target"
-    return "approach" if frame else "region"
+    return "approach"
 
 
 def _extent(program: Program, pts: list[np.ndarray], humans: dict[str, Human]
@@ -171,10 +207,11 @@ def scene(program: Program, mission: Mission, sol: Solution) -> dict:
                       "color": drone_color(len(trajs))})
     lo, hi = _extent(program, pts, humans)
     formulas: list[ir.Formula] = [mission.requirement, *mission.specs.values()]
-    used = mentioned(formulas, [r.name for r in program.scenario.regions])
+    used = mentioned(formulas)
+    uses = region_uses(formulas)
     boxes = []
     for r in program.scenario.regions:
-        role = region_role(r.name, r.kind, r.box.frame)
+        role = region_role(r.kind, r.box.frame, uses.get(r.name, set()))
         corners = box_corners(r.box, humans, (lo, hi))
         # workspace, obstacles, targets, stations, homes are always shown (a quantifier over
         # `targets` names none of them); free regions only when the mission mentions them

@@ -304,8 +304,9 @@ class _Builder:
                  specs=set(self.stated.get("distance_min", [])))
 
     def clearance(self) -> None:
-        """Distance to the nearest obstacle, the radius as its limit, and its minimum."""
-        from stlc.analysis.clearance import obstacle_clearance
+        """Distance to the nearest obstacle, the radius as its limit, and its minimum (at
+        the samples, and of the straight segments between them)."""
+        from stlc.analysis.clearance import obstacle_clearance, segment_clearance
 
         traces, notes, radii = [], [], set()
         for v in self.vehicles:
@@ -320,8 +321,13 @@ class _Builder:
             radii.add(r)
             k = int(np.argmin(d))
             traces.append({"name": self.tag(v, "clearance"), "y": nums(d)})
+            seg = segment_clearance(self.program.scenario, np.stack(p, axis=1))
+            j = int(np.argmin(seg)) if seg is not None and seg.size else None
+            between = "" if j is None else (
+                f"; between samples {seg[j]:.3f} m at t = {self.t[j]:g}–{self.t[j + 1]:g} s"
+                f"{'' if seg[j] >= r - 1e-9 and seg[j] > 1e-12 else ' (a corner cut)'}")
             notes.append(f"{v}: minimum clearance {d[k]:.3f} m at t = {self.t[k]:g} s "
-                         f"(radius {r:g} m{'' if d[k] >= r - 1e-9 else ', BELOW it'})")
+                         f"(radius {r:g} m{'' if d[k] >= r - 1e-9 else ', BELOW it'}){between}")
         bnds = [b for r in sorted(radii) if r > 0 for b in self.line(r, "radius", unit="m")]
         self.add("sig-clearance", "Clearance to the nearest obstacle", "m", traces, bnds,
                  note="; ".join(notes), specs=set())

@@ -74,7 +74,7 @@ def energy(program: Program, mission: Mission, sol: Solution) -> dict:
     t = np.asarray(sol.times, float)
     names = vehicles(mission, sol)
     modelled = any(model_of(program.vehicles[v]).has_rotor_energy(program.vehicles[v])
-                   for v in names if v in program.vehicles)
+                   for v in names if v in program.vehicles) and num(sol.energy) is not None
 
     def axis(n: int) -> list[float | None]:
         return nums(t) if n == t.size else nums(np.arange(n) * mission.step)
@@ -116,6 +116,8 @@ def energy(program: Program, mission: Mission, sol: Solution) -> dict:
                              "y": nums(arr), "cumulative": nums(np.cumsum(arr))})
     return {
         "modelled": modelled,
+        "per_vehicle": [{"name": k, "text": fmt(e, 5, unit="J")}
+                        for k, e in sol.energy_by_vehicle.items()] if len(names) > 1 else [],
         "total": num(sol.energy) if modelled else None,
         "total_text": fmt(sol.energy, 5, unit="J") if modelled else "—",
         "has_profile": bool(profiles),
@@ -233,7 +235,7 @@ def _spec_rows(program: Program, mission: Mission, sol: Solution,
             "tightest_time": num(r.tightest_time),
             "tightest_text": fmt(r.tightest_time, unit="s") if r.tightest_time is not None
             else "—",
-            "binding_predicate": readable(r.binding_predicate),
+            "binding_predicate": readable(r.binding_origin, r.binding_predicate),
             "binding_predicate_raw": r.binding_predicate or "",
             "line": line, "end_line": end_line,
             "anchor": anchor(line, n_lines),

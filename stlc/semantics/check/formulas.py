@@ -41,6 +41,7 @@ from stlc.semantics.check.values import (
     sub,
     to_sym,
 )
+from stlc.semantics.origin import COMPARE, FACE, RANGE, Origin
 
 DOMAIN_HINT = ("range over `team`, `vehicles`, `targets`, `stations`, `homes`, `obstacles`, "
                "`regions` or a list like [uav1, uav2]")
@@ -200,6 +201,8 @@ class FormulaElaborator(Context):
         label = self.text(n.span)
         preds = []
         la, lb = _labels(sa, len(items)), _labels(sb, len(items))
+        origin = Origin(COMPARE, label, op=n.op, left=self.text(n.left.span),
+                        right=self.text(n.right.span), regions=self._regions_read(n, scope))
         for k, (x, y) in enumerate(items):
             e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
             lab = label if len(items) == 1 else f"{label} [{k + 1}]"
@@ -211,8 +214,29 @@ class FormulaElaborator(Context):
             elif isinstance(x, ir.Const) and not isinstance(y, ir.Const):
                 bound = ir.Bound(lb[k], "lower" if upper else "upper", x.value, y,
                                  _ast_calls(n.right))
-            preds.append(ir.Pred(e, lab, n.span, bound))
+            o = origin if len(items) == 1 else dataclasses.replace(origin, component=k + 1)
+            preds.append(ir.Pred(e, lab, n.span, bound, o))
         return Form(preds[0] if len(preds) == 1 else ir.And(tuple(preds), n.span))
+
+    def _regions_read(self, n: ast.Node, scope: Scope) -> tuple[str, ...]:
+        """The declared regions a comparison reads (``dist(p, target1.center)``), found by
+        resolving the paths of its syntax tree (a pure lookup: no diagnostics)."""
+        out: list[str] = []
+        stack: list[object] = [n]
+        while stack:
+            x = stack.pop()
+            if isinstance(x, tuple):
+                stack.extend(x)
+            elif isinstance(x, ast.Path):
+                v = scope.get(x.parts[0])
+                if isinstance(v, HumanV) and len(x.parts) > 1:
+                    v = self.human_regions.get(v.human.name, {}).get(x.parts[1])
+                if isinstance(v, RegionV) and v.name and v.name not in out:
+                    out.append(v.name)
+            elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+                stack.extend(getattr(x, f.name) for f in dataclasses.fields(x)
+                             if f.name != "span")
+        return tuple(out)
 
     def _infinite(self, span: Span) -> ErrorV:
         return self.err("STL207", "a comparison needs finite numbers on both sides", span,
@@ -258,13 +282,16 @@ class FormulaElaborator(Context):
             preds = []
             lv = _labels(v, len(i1)) if isinstance(v, Sym) else [label] * len(i1)
             calls = _ast_calls(n.arg)
+            side = Origin(RANGE, label, subject=self.text(n.arg.span))
+            o_lo = dataclasses.replace(side, side="lower", bound_text=self.text(n.region.lo.span))
+            o_hi = dataclasses.replace(side, side="upper", bound_text=self.text(n.region.hi.span))
             for k, ((x, lo_e), (_, hi_e)) in enumerate(zip(i1, i2)):
                 b_lo = (ir.Bound(lv[k], "lower", lo_e.value, x, calls)
                         if isinstance(lo_e, ir.Const) else None)
                 b_hi = (ir.Bound(lv[k], "upper", hi_e.value, x, calls)
                         if isinstance(hi_e, ir.Const) else None)
-                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span, b_lo))
-                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span, b_hi))
+                preds.append(ir.Pred(sub(x, lo_e), f"{label} (lower)", n.span, b_lo, o_lo))
+                preds.append(ir.Pred(sub(hi_e, x), f"{label} (upper)", n.span, b_hi, o_hi))
             f: ir.Formula = ir.And(tuple(preds), n.span)
         else:
             reg = self.value(n.region, scope)
@@ -284,7 +311,10 @@ class FormulaElaborator(Context):
                                 f"{units.describe(v.dim)}", n.arg.span)
             if n.negated:  # `pos not in R` keeps the vehicle's radius: R inflated by it
                 reg = inflated(reg, self._radius_of(v.items))
-            f = box_membership(v.items, reg, self.text(n.span), n.span)
+            f = box_membership(v.items, reg, self.text(n.span), n.span,
+                               Origin(FACE, self.text(n.span), subject=self.text(n.arg.span),
+                                      region=reg.name, region_text=self.text(n.region.span),
+                                      regions=(reg.name,) if reg.name else ()))
         return Form(ir.Not(f, n.span) if n.negated else f)
 
     def _radius_of(self, items: tuple[ir.Expr, ...]) -> float:
@@ -346,15 +376,20 @@ def inflated(reg: RegionV, r: float) -> RegionV:
     return dataclasses.replace(reg, box=box)
 
 
-def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span) -> ir.Formula:
-    """``p in box`` as six predicates, in the human's frame when the box is attached to one."""
+def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span,
+                   origin: Origin | None = None) -> ir.Formula:
+    """``p in box`` as six predicates, in the human's frame when the box is attached to one;
+    each face's ``origin`` (``origin`` with its axis and side) says which face it is."""
     box = reg.box
     if box.frame is not None:
         p = world_to_frame(p, box.frame)
+    o = origin or Origin(FACE, label, region=reg.name, regions=(reg.name,) if reg.name else ())
     preds = []
     for k, axis in enumerate("xyz"):
-        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span))
-        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span))
+        preds.append(ir.Pred(sub(p[k], const(box.lo[k])), f"{label} ({axis} >= lo)", span,
+                             origin=dataclasses.replace(o, axis=axis, side="lo")))
+        preds.append(ir.Pred(sub(const(box.hi[k]), p[k]), f"{label} ({axis} <= hi)", span,
+                             origin=dataclasses.replace(o, axis=axis, side="hi")))
     return ir.And(tuple(preds), span)
 
 

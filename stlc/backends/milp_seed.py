@@ -1,0 +1,363 @@
+"""MILP seeds for nonlinear vehicles: the discrete structure of a plan chosen globally.
+
+The full NLP (``casadi_nlp``) is local: started on the wrong side of an obstacle, or at the
+wrong sample of an ``eventually``, it converges there, and no smoothing λ moves it across.
+``MilpPathSeed`` replaces the local kinematic guess of the ``nlp`` chain by a global one:
+
+* every vehicle becomes a **double integrator** in its position and velocity, with the
+  speed and acceleration bounds its model offers for a guess
+  (``VehicleModel.kinematic_limits``: for a multirotor a per-axis speed and acceleration it
+  can fly at any attitude the NLP allows — an inner bound, so the NLP can follow the path);
+* the requirement keeps its predicates on positions and velocities; every other predicate
+  (speed norm, heading, rotor speed, attitude, payload) becomes ``true`` (the NLP adds
+  them back);
+* the grid is **as coarse as the formula's intervals allow**: the largest multiple h of the
+  mission step, at most ``MAX_STEP_S``, that divides the horizon and every finite bound of a
+  temporal operator — so every window of the formula falls on seed samples;
+* the STL→MILP encoding of ``milp_encode`` (a binary per branch of every disjunction: the
+  side of every obstacle, the sample of every ``eventually``, the branch of every ``or``)
+  maximises the robustness ρ̂ minus a small L1 penalty on the accelerations (a smooth,
+  economical path among the most robust ones), under HiGHS with a time limit.
+
+The seed path is exact between seed samples (piecewise-constant acceleration), so it is
+sampled onto the mission grid as positions, velocities and accelerations — the channels the
+NLP's guess (``schedule.full_guess``) lifts to the vehicle's states and inputs.  The NLP's
+first robustness stage then keeps the seed's discrete choices (``choices.choose`` on the
+lifted guess: the branch with the largest margin per sample, the best sample per window),
+and only if that misses κ solves the formula as written.
+
+When the MILP cannot be built (a position predicate that is not affine), finds no path in
+its time limit, or the mission has no predicate on positions, the seed is the kinematic
+guess as before; ``Solution.solver`` says which ran.  The seed proves nothing: it is
+neither a relaxation (inner bounds, coarse samples) nor the verdict (the exact monitor judges
+the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_conflict``'s.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from stlc import deadline, vehicles
+from stlc.backends.base import SolverStatus
+from stlc.backends.casadi_backend import KinematicGuess
+from stlc.backends.milp_encode import NotLinear
+from stlc.semantics import ir
+from stlc.semantics.timegrid import TimeGrid
+
+MAX_STEP_S = 0.5  #: the coarsest seed step (corner cuts between samples stay ≲ v·h/2)
+MAX_SAMPLES = 121  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
+TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
+ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
+IMPROVE_S = 1.5  #: at most this long shortening the first path (choices free)
+IMPROVE_GAP = 0.05  #: … or until its penalty is within 5 % of HiGHS's bound
+POLISH_S = 0.3  #: kept for the last LP (choices fixed)
+TOL = 1e-9
+
+
+def _bounds(f: ir.Formula) -> set[float]:
+    out: set[float] = set()
+    for g in ir.nodes(f):
+        for attr in ("lo", "hi"):
+            v = getattr(g, attr, None)
+            if isinstance(v, (int, float)) and math.isfinite(v) and not isinstance(v, bool):
+                out.add(float(v))
+    return out
+
+
+def seed_factor(grid: TimeGrid, formula: ir.Formula, max_step: float = MAX_STEP_S,
+                max_samples: int = MAX_SAMPLES) -> int:
+    """The largest m such that m·dt ≤ ``max_step`` (or, when the grid would keep more than
+    ``max_samples`` samples, any m) divides the horizon's intervals and every finite bound
+    of a temporal operator of ``formula`` on the grid."""
+    dt, N = grid.dt, grid.n_intervals
+    times = _bounds(formula)
+
+    def ok(m: int) -> bool:
+        if N % m:
+            return False
+        h = m * dt
+        return all(abs(t / h - round(t / h)) < 1e-6 for t in times)
+
+    best = 1
+    for m in range(2, N + 1):
+        if not ok(m):
+            continue
+        if m * dt <= max_step + TOL or (N // best) + 1 > max_samples:
+            best = m
+        else:
+            break
+    return best
+
+
+def seed_formula(problem) -> ir.Formula:
+    """The requirement with only its affine predicates on positions and velocities (every
+    other predicate is ``true``)."""
+    from stlc.backends.milp_conflict import _drop_nonlinear
+
+    keep = set(problem.fixed_channels)
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        sc = vm.state_channels(v)
+        keep |= set(sc[vm.pos_index()]) | set(sc[vm.vel_index()])
+    return ir.restrict(_drop_nonlinear(problem.requirement, problem.params, {}),
+                       lambda s: s in keep)
+
+
+@dataclass(frozen=True)
+class _Box:
+    x_lo: np.ndarray
+    x_hi: np.ndarray
+    u_lo: np.ndarray
+    u_hi: np.ndarray
+
+
+def _lins(problem, h: float):
+    """Each vehicle as a double integrator on the seed grid (step h), inner bounds."""
+    hold = problem.hold_end
+
+    def lins(v):
+        vm = vehicles.model_of(v)
+        vmax, amax = vm.kinematic_limits(v)
+        sc = vm.state_channels(v)
+        x0 = np.asarray(problem.start_state(v.name), float)
+        pos, vel = sc[vm.pos_index()], sc[vm.vel_index()]
+        x0 = np.concatenate([x0[vm.pos_index()], x0[vm.vel_index()]])
+        eye = np.eye(3)
+        ad = np.block([[eye, h * eye], [np.zeros((3, 3)), eye]])
+        bd = np.vstack([h * h / 2 * eye, h * eye])
+        vmax = np.asarray(vmax, float)
+        # the start velocity may exceed the seed's bound (a disturbed replan): widen to it
+        vmax = np.maximum(vmax, np.abs(x0[3:]))
+
+        b = _Box(np.concatenate([np.full(3, -np.inf), -vmax]),
+                 np.concatenate([np.full(3, np.inf), vmax]),
+                 -np.asarray(amax, float), np.asarray(amax, float))
+        inputs = [f"__seed.{v.name}.acc.{a}" for a in "xyz"]
+        return list(pos) + list(vel), inputs, ad, bd, b, x0
+
+    lins.hold = hold
+    return lins
+
+
+def conjuncts(f: ir.Formula) -> list[ir.Formula]:
+    return list(f.args) if isinstance(f, ir.And) else [f]
+
+
+def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
+         exclude: tuple = ()):
+    """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
+    of the MILP; the paths are None when the MILP found none (or cannot be built).
+    ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
+    0/1 values)} — a no-good cut: at least one of those binaries differs.  The record's
+    ``choices`` are this seed's, in the same form, for every conjunct of the seed formula."""
+    from stlc.backends.milp_backend import build, invariant_box
+    from stlc.backends.milp_model import Highs
+
+    t0 = time.perf_counter()
+    f = seed_formula(problem)
+    grid = problem.grid
+    rec: dict = {"name": "HiGHS MILP seed (highspy)"}
+    if isinstance(f, (ir.TrueF, ir.FalseF)):
+        rec["status"] = "no position predicate"
+        return None, rec
+    m = seed_factor(grid, problem.requirement)
+    h = m * grid.dt
+    coarse = TimeGrid(h, grid.n_intervals // m)
+    fixed = {k: np.asarray(v)[::m] for k, v in problem.fixed_channels.items()}
+    cp = replace(problem, grid=coarse, fixed_channels=fixed, requirement=f, seed=None)
+    lins = _lins(problem, h)
+    parts = {f"c{i}": c for i, c in enumerate(conjuncts(f))}
+    try:
+        low = build(cp, {**parts, "requirement": f}, lins, box=invariant_box(cp),
+                    top_of="requirement")
+    except (NotLinear, ValueError) as e:
+        rec["status"] = f"not encodable: {e}"
+        return None, rec
+    milp = low.milp
+    bins = {i: [j for j in range(*low.spans[f"c{i}"]) if milp.integer[j]]
+            for i in range(len(parts))}
+    for cut in exclude:  # Σ_{v=0} y − Σ_{v=1} y ≥ 1 − |ones|
+        coefs = {int(j): (1.0 if v < 0.5 else -1.0) for cols, vals in cut.values()
+                 for j, v in zip(cols, vals)}
+        if coefs:
+            milp.row(coefs, 1.0 - sum(1 for c in coefs.values() if c < 0), np.inf)
+    if lins.hold:  # the holdable end: at rest at the last seed sample
+        for lv in low.vehicles:
+            for c in lv.x[-1][3:]:
+                milp.row({int(c): 1.0}, 0.0, 0.0)
+    cost: dict[int, float] = {}
+    if low.top >= 0:
+        cost[low.top] = -1.0
+    for lv in low.vehicles:  # t ≥ |a|: the L1 penalty
+        for col in lv.u.ravel():
+            t = milp.var(0.0, np.inf)
+            milp.row({t: 1.0, int(col): -1.0}, 0.0, np.inf)
+            milp.row({t: 1.0, int(col): 1.0}, 0.0, np.inf)
+            cost[t] = ACC_WEIGHT * h
+    limit = float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
+    res, phases = _solve(milp, low.top, cost, problem.threshold, limit)
+    rec.update({"status": res.status, "step_s": h, "samples": coarse.n,
+                "binaries": milp.n_binaries, "wall_s": sum(p[2] for p in phases),
+                "build_s": low.build_s, "nodes": res.nodes,
+                "phases": [list(p) for p in phases]})
+    if res.x is None:
+        return None, rec
+    rho = float(res.x[low.top]) if low.top >= 0 else float("nan")
+    rec["robustness"] = rho
+    rec["excluded"] = len(exclude)
+    rec["choices"] = {i: (cols, [int(round(res.x[j])) for j in cols])
+                      for i, cols in bins.items() if cols}
+    paths = {}
+    for lv, v in zip(low.vehicles, problem.vehicles()):
+        xs, uu = lv.simulate(res.x)
+        paths[v.name] = _refine(xs, uu, m, grid.dt)
+    rec["total_s"] = time.perf_counter() - t0
+    return paths, rec
+
+
+def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
+    """Three phases: a path with ρ̂ ≥ κ (a feasibility MILP: HiGHS finds one far sooner than
+    it closes any optimisation); then, from it as a MIP start, the MILP minimising the
+    acceleration penalty under ρ̂ ≥ κ for at most ``IMPROVE_S`` (a feasibility solution's
+    choices at samples where nothing binds are arbitrary: a path that wanders); then, with
+    the incumbent's binaries fixed — its discrete choices —, the LP maximising ρ̂ − penalty
+    (the most robust, economical path of that homotopy class).  When no path reaches κ (or
+    none was found in time), the whole MILP maximises ρ̂ − penalty in the time left and its
+    incumbent is the seed."""
+    from stlc.backends.milp_model import Highs
+
+    t0 = time.perf_counter()
+    left = lambda: max(limit - (time.perf_counter() - t0), 0.05)  # noqa: E731
+    phases = []
+    best = None
+    if top >= 0:
+        h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6)
+        h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
+        best = h.solve()
+        phases.append(("feasibility", best.status, best.wall_s))
+        if best.status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
+            return best, phases
+        if best.x is not None and left() > 2 * POLISH_S:
+            penalty = {j: c for j, c in cost.items() if j != top}
+            h = Highs(milp, penalty, time_limit=min(IMPROVE_S, left() - POLISH_S),
+                      rel_gap=IMPROVE_GAP, abs_gap=1e-6)
+            h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
+            h.start(best.x)
+            res = h.solve()
+            phases.append(("shortest path (choices free)", res.status, res.wall_s))
+            if res.x is not None:
+                best = res
+    h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
+    if best is not None and best.x is not None:  # its choices fixed: an LP
+        for j, integer in enumerate(milp.integer):
+            if integer:
+                v = float(round(best.x[j]))
+                h.set_col_bounds(j, v, v)
+        res = h.solve()
+        phases.append(("polish (choices fixed)", res.status, res.wall_s))
+        if res.x is None:
+            res.x, res.status = best.x, best.status
+        return res, phases
+    res = h.solve()
+    phases.append(("optimisation", res.status, res.wall_s))
+    return res, phases
+
+
+def _refine(xs: np.ndarray, uu: np.ndarray, m: int, dt: float):
+    """The seed path (exact between seed samples) on the mission grid."""
+    kc = xs.shape[0] - 1
+    n = kc * m + 1
+    P, V, A = np.empty((3, n)), np.empty((3, n)), np.empty((3, n - 1))
+    for j in range(n):
+        k = min(j // m, kc - 1) if kc else 0
+        r = j - k * m
+        tau = r * dt
+        a = uu[k] if kc else np.zeros(3)
+        P[:, j] = xs[k, :3] + xs[k, 3:] * tau + a * tau * tau / 2
+        V[:, j] = xs[k, 3:] + a * tau
+        if j < n - 1:
+            A[:, j] = a
+    return P, V, A
+
+
+class MilpPathSeed(KinematicGuess):
+    """The ``nlp`` chain's seed: the MILP seed path, else the kinematic guess.  When no seed
+    path reaches κ, the sound relaxation of ``milp_conflict`` is asked for a proof at once
+    (before the NLP spends its λ schedule on an impossible mission); with a proof the
+    Solution is ``infeasible`` and ``run_chain`` stops there."""
+
+    name = "milp seed"
+
+    def __init__(self, quiet: bool = True, exclude: tuple = ()):
+        self.quiet = quiet
+        self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
+        self.choices = None  # this seed's, after ``invert``
+
+    def solve(self, lowered, problem):
+        from stlc.backends import schedule
+
+        t0 = time.perf_counter()
+        paths, rec = plan(problem, exclude=self.exclude)
+        proof = None
+        if rec.get("phases") and rec["phases"][0][1] == "Infeasible":
+            from stlc.backends.milp_conflict import prove_infeasible
+
+            proof = prove_infeasible(problem)
+            rec["proof_s"] = time.perf_counter() - t0 - rec.get("total_s", 0.0)
+        if proof is None:  # the kinematic NLP, from the seed path when there is one
+            t1 = time.perf_counter()
+            paths = schedule.kinematic_guess(problem, path=paths)
+            rec["kinematic_s"] = time.perf_counter() - t1
+            if "robustness" not in rec:
+                rec["fallback"] = "kinematic guess"
+        return (paths, rec, proof), time.perf_counter() - t0
+
+    def next_seed(self, problem, channels) -> MilpPathSeed | None:
+        """A seed that leaves out this one's choices for the conjuncts of the seed formula
+        that the plan ``channels`` violates (exact monitor, κ): the next-best discrete
+        choice, or None when this seed chose nothing."""
+        from stlc.analysis import monitor
+
+        if not self.choices:
+            return None
+        f = seed_formula(problem)
+        bad = {i for i, c in enumerate(conjuncts(f)) if i in self.choices and
+               float(monitor.robustness(c, problem.grid.dt, channels, problem.params))
+               < problem.threshold}
+        cut = {i: self.choices[i] for i in (bad or self.choices)}
+        return MilpPathSeed(self.quiet, self.exclude + (cut,))
+
+    def invert(self, raw, inverse, problem):
+        (paths, rec, proof), dt_s, cpu_s, waited_s = raw
+        self.choices = rec.pop("choices", None)
+        if proof is not None:
+            from stlc.backends.milp_conflict import mark
+            from stlc.planning.fallback import hover_solution
+
+            sol = hover_solution(problem, "no plan exists", why="the mission is proved "
+                                 "infeasible, so no trajectory was planned: the plan shown is "
+                                 "every vehicle hovering at its start")
+            mark(problem, sol, proof)
+            sol.smoothing = {"method": problem.smoothing.method,
+                             "lambda": problem.smoothing.lam,
+                             "lambda_final": problem.smoothing.lam,
+                             "threshold": problem.threshold}
+        else:
+            sol = super().invert((paths, dt_s, cpu_s, waited_s), inverse, problem)
+        ok = "fallback" not in rec
+        status = rec.get("status")
+        sol.solver = sol.solver if proof is not None else {}
+        sol.solver.update({
+            "name": rec["name"] if ok else "kinematic guess (after the MILP seed)",
+            "status": str(SolverStatus.INFEASIBLE if proof is not None else
+                          SolverStatus.OPTIMAL if status == "Optimal" else
+                          SolverStatus.MAX_TIME if status == "Time limit reached" else
+                          SolverStatus.FAILED),
+            "return_status": "infeasible" if proof is not None else str(status),
+            "converged": status == "Optimal", "seed": rec})
+        sol.timing.update({"guess_s": dt_s, "guess_cpu_s": cpu_s, "guess_wait_s": waited_s})
+        return sol
