@@ -141,6 +141,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="an existing Dask cluster, e.g. tcp://host:8786")
     w.add_argument("-o", "--out", metavar="DIR", default=None)
     w.add_argument("-q", "--quiet", action="store_true")
+    w.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
+                   help="each instance's limit: a stopped instance is a `stopped` row")
 
     b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
     b.add_argument("args", nargs=argparse.REMAINDER)
@@ -393,7 +395,8 @@ def cmd_sweep(args) -> int:
     from stlc.sweep.run import sweep
 
     return sweep(args.file, args.mission, args.vary, args.sets, args.out, args.workers,
-                 args.scheduler, args.random, args.seed, args.quiet)
+                 args.scheduler, args.random, args.seed, args.quiet,
+                 time_limit=args.time_limit)
 
 
 def cmd_bench(args) -> int:

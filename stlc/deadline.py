@@ -19,6 +19,13 @@ when the solvers' share has run out (as ``stlc.interrupt`` does for Ctrl-C; a C 
 finishes first).  The pipeline then writes the best plan it has — with nothing found yet,
 the vehicles hovering at their start — judged by the exact monitor.
 
+Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (issue 23,
+"no solve without a time limit"), so no NLP solve, stage or build runs unbounded; a run that
+reaches it ends like any stopped run (best verified plan written, exit 3), and its notes say
+the limit was the default.  It is generous — 30× the slowest shipped mission (10–60 s on a
+loaded two-core machine) — so it never binds a mission that plans normally; the
+developers' ``STLC_DEFAULT_TIME_LIMIT`` (seconds) overrides it (tests).
+
 Ctrl-C is not a time limit: it still stops at once and writes nothing (``stlc.interrupt``).
 """
 
@@ -37,13 +44,35 @@ from collections.abc import Callable, Iterator
 RESERVE_FRACTION = 0.3
 RESERVE_MAX_S = 2.5
 
-_state: dict[str, float | None] = {"end": None, "limit": None, "start": None}
+#: the limit of a run that gives none (see the module docstring)
+DEFAULT_LIMIT_S = 1800.0
+
+
+
+class _State(threading.local):
+    """The limit of the calling thread: a sweep's instances running as threads of one Dask
+    worker each keep their own (the watchdog hands its thread's limit to the writer)."""
+
+    def __init__(self) -> None:
+        self.__dict__.update(end=None, limit=None, start=None, default=None)
+
+    def __getitem__(self, key: str):
+        return self.__dict__[key]
+
+    def update(self, **kw) -> None:
+        self.__dict__.update(kw)
+
+    def copy(self) -> dict:
+        return dict(self.__dict__)
+
+
+_state = _State()
 #: a thread stuck in one long C call (CasADi differentiating a large NLP; the GIL is
 #: released) does not see the exception; after ``GRACE_S`` the watchdog itself runs the
 #: ``overrun`` writer (the fallback plan's outputs) and ends the process with its exit code
 GRACE_S = 0.4
 _watch: dict = {"timer": None, "thread": None, "armed": False, "fired": False,
-                "caught": False, "overrun": None, "entered": False}
+                "caught": False, "overrun": None, "entered": False, "state": {}}
 _lock = threading.Lock()
 
 
@@ -51,18 +80,35 @@ class TimeLimitReached(BaseException):  # noqa: N818 - like KeyboardInterrupt, n
     """Raised in the planning thread by the watchdog when the limit ran out while armed."""
 
 
-def set_limit(seconds: float | None, start: float | None = None) -> None:
+def set_limit(seconds: float | None, start: float | None = None,
+              default: bool = False) -> None:
     """Start a limit of ``seconds`` (None or ∞ clears it), counted from ``start``
-    (``time.monotonic()``, default now)."""
+    (``time.monotonic()``, default now); ``default``: the run gave none (``default_limit``)."""
     if seconds is None or not math.isfinite(seconds):
         clear()
         return
     t0 = time.monotonic() if start is None else start
-    _state.update(start=t0, limit=float(seconds), end=t0 + float(seconds))
+    _state.update(start=t0, limit=float(seconds), end=t0 + float(seconds),
+                  default=1.0 if default else None)
 
 
 def clear() -> None:
-    _state.update(end=None, limit=None, start=None)
+    _state.update(end=None, limit=None, start=None, default=None)
+
+
+def default_limit() -> float:
+    """``DEFAULT_LIMIT_S``, or the developers' ``STLC_DEFAULT_TIME_LIMIT`` when it is a
+    positive number of seconds."""
+    with contextlib.suppress(ValueError):
+        x = float(os.environ.get("STLC_DEFAULT_TIME_LIMIT", ""))
+        if math.isfinite(x) and x > 0:
+            return x
+    return DEFAULT_LIMIT_S
+
+
+def is_default() -> bool:
+    """Is the active limit the default one (the run gave none)?"""
+    return active() and _state["default"] is not None
 
 
 @contextlib.contextmanager
@@ -70,12 +116,16 @@ def limited(seconds: float | None, start: float | None = None,
             overrun: Callable[[], int] | None = None) -> Iterator[None]:
     """``set_limit`` for the duration of a block, with the watchdog armed for the calling
     thread (see the module docstring); ``overrun()`` writes the fallback outputs and returns
-    the exit code when the thread does not answer the watchdog in time."""
-    set_limit(seconds, start)
+    the exit code when the thread does not answer the watchdog in time.  ``seconds`` None:
+    the default limit (``default_limit``): no run plans without one."""
+    if seconds is None:
+        set_limit(default_limit(), start, default=True)
+    else:
+        set_limit(seconds, start)
     if active():
         with _lock:
             _watch.update(thread=threading.get_ident(), armed=True, fired=False,
-                          caught=False, overrun=overrun, entered=False)
+                          caught=False, overrun=overrun, entered=False, state=_state.copy())
             t = threading.Timer(max(0.0, solve_remaining()), _fire)
             t.daemon = True
             _watch["timer"] = t
@@ -89,6 +139,22 @@ def limited(seconds: float | None, start: float | None = None,
             if _watch["timer"] is not None:
                 _watch["timer"].cancel()
             _watch.update(timer=None, thread=None, armed=False, overrun=None, entered=False)
+        clear()
+
+
+@contextlib.contextmanager
+def bounded(seconds: float | None = None) -> Iterator[None]:
+    """A limit of ``seconds`` (None: the default, ``default_limit``) for a block that runs
+    solves, without the watchdog (``simulate``'s replans, a sweep's instance in a Dask
+    worker: every solve there sees it, a build is not cut); a limit already active is
+    kept."""
+    if active():
+        yield
+        return
+    set_limit(default_limit() if seconds is None else seconds, default=seconds is None)
+    try:
+        yield
+    finally:
         clear()
 
 
@@ -117,6 +183,7 @@ def _hard_stop() -> None:
             return
         _watch["caught"] = True  # the planning thread must not write too
         overrun = _watch["overrun"]
+        _state.update(**_watch["state"])  # the planning thread's limit, for the writer
     code = 3
     try:
         code = overrun()
@@ -185,8 +252,8 @@ def ipopt_options(minimum: float = 0.05) -> dict[str, float]:
 
 
 def progress_note() -> str:
-    """``, 3.2 s left`` for progress lines (empty without a limit)."""
-    if not active():
+    """``, 3.2 s left`` for progress lines (empty without a limit or with the default)."""
+    if not active() or is_default():
         return ""
     return f", {max(0.0, remaining()):.1f} s left"
 
@@ -194,7 +261,7 @@ def progress_note() -> str:
 def mission_limit(options: dict, cli: float | None, share: float) -> float | None:
     """The time limit of one mission: ``--time-limit`` (``share``: its part of what is
     left, shared by the missions still to run) or else the mission's ``time_limit``
-    field (``options``); None = no limit."""
+    field (``options``); None = neither: ``limited`` then sets the default limit."""
     if cli is not None:
         return share
     lim = options.get("time_limit")

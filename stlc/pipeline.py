@@ -137,7 +137,15 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
          chain: list | None = None):
     """Plan one mission and verify the plan: returns (PlanningProblem, Solution).  ``values``
     are the instance's ``--set`` values (recorded on the problem); ``chain`` replaces the
-    chosen backend chain (a sweep's warm start from its plan library)."""
+    chosen backend chain (a sweep's warm start from its plan library).  A caller without a
+    time limit (the API, a sweep's instance) plans under the default one (``stlc.deadline``):
+    no solve runs unbounded."""
+    with deadline.bounded():
+        return _plan(program, mission, quiet=quiet, step=step, horizon=horizon,
+                     backend=backend, values=values, chain=chain)
+
+
+def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
     from stlc.analysis.vacuity import plan_warnings
     from stlc.backends.select import Chain, select
     from stlc.planning.fallback import time_limited

@@ -145,30 +145,32 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
         problem, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
     t1 = time.perf_counter()
-    try:
-        if moves:
-            from stlc.backends.move_replan import replan_rest
-            from stlc.replan.move import moved_program, simulate_move
+    # replans solve too: under the default limit (stlc.deadline), no watchdog
+    with deadline.bounded():
+        try:
+            if moves:
+                from stlc.backends.move_replan import replan_rest
+                from stlc.replan.move import moved_program, simulate_move
 
-            sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
-            program = moved_program(program, moves[0])
-        elif fails:
-            from stlc.backends.backup import TakeoverBackend
-            from stlc.replan.takeover import simulate_failure
+                sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
+                program = moved_program(program, moves[0])
+            elif fails:
+                from stlc.backends.backup import TakeoverBackend
+                from stlc.replan.takeover import simulate_failure
 
-            sim = simulate_failure(problem, sol, fails[0], cfg, planner=TakeoverBackend())
-        else:
-            from stlc.backends.segment import SegmentBackend
-            from stlc.replan.disturb import simulate_disturbances
+                sim = simulate_failure(problem, sol, fails[0], cfg, planner=TakeoverBackend())
+            else:
+                from stlc.backends.segment import SegmentBackend
+                from stlc.replan.disturb import simulate_disturbances
 
-            sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
-    except ValueError as e:  # the replanning modules' input errors (subclasses)
-        if type(e) is ValueError:
-            raise
-        span = getattr(getattr(e, "disturbance", None), "span", None)
-        raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}",
-                                    span if span is not None and span.known else m.span,
-                                    "see `stlc simulate` in the README")]) from None
+                sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
+        except ValueError as e:  # the replanning modules' input errors (subclasses)
+            if type(e) is ValueError:
+                raise
+            span = getattr(getattr(e, "disturbance", None), "span", None)
+            raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}",
+                                        span if span is not None and span.known else m.span,
+                                        "see `stlc simulate` in the README")]) from None
     # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
     # whole mission, judged over the executed team
     sim.kept = ("mission",) if fails or moves else (tuple(cfg.specs) or ("mission",))

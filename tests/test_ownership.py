@@ -140,3 +140,76 @@ def test_sigterm_and_sighup_get_ctrl_c_contract(tmp_path, sig, code):
     assert time.monotonic() - t0 < 5.0  # ~1.5 s idle; 2.8 s measured at load average 26
     assert f"signal {int(sig)}" in rest and "Traceback" not in rest
     assert {q.name: q.read_text() for q in out.iterdir()} == old  # no stage folder either
+
+
+# a compile whose output step is slow, for a signal to land in it: the script patches one
+# writer (test-only), touches FLAG when that step is reached, then runs the real CLI
+SLOW_OUTPUT = """\
+import os, sys, time
+import stlc.output.report as report
+import stlc.output.directory as directory
+flag, where = sys.argv[1], sys.argv[2]
+if where == "write":  # while the files are written into the stage folder
+    real = report.write_report
+    def slow_report(path, *a, **k):
+        with open(path, "w") as fh:
+            fh.write("<html>half")  # a half-written report in the stage folder
+        open(flag, "w").close()
+        for _ in range(600):  # slow Python work, as rendering is
+            time.sleep(0.1)
+        return real(path, *a, **k)
+    report.write_report = slow_report
+else:  # inside the publish step: the moves into place
+    real = os.replace
+    def slow_replace(src, dst):
+        if not os.path.exists(flag):
+            open(flag, "w").close()
+            time.sleep(1.0)
+        return real(src, dst)
+    directory.os = type(sys)("os_slow")
+    directory.os.__dict__.update(os.__dict__)
+    directory.os.replace = slow_replace
+from stlc.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+@pytest.mark.parametrize("where", ["write", "publish"])
+def test_sigterm_during_the_output_step(tmp_path, where):
+    """SIGTERM while the outputs are written (issue 23): exit 143, no `.stlc-stage-*` folder
+    left, the user's files intact, and the directory holds one complete set — the old one
+    when the signal lands while the stage is written, the new one (with its manifest) when
+    it lands inside the final moves, which an interrupt does not cut (``deferred``)."""
+    (tmp_path / "one.stl").write_text(ONE)
+    (tmp_path / "slow.py").write_text(SLOW_OUTPUT)
+    out = tmp_path / "out"
+    out.mkdir()
+    old = {n: f"previous {n}" for n in ("report.html", "solution.json", "trajectory.csv")}
+    old[directory.MANIFEST] = json.dumps({"written_by": "stlc", "files": sorted(old)})
+    for name, text in {**old, **USER}.items():
+        (out / name).write_text(text)
+    flag = tmp_path / "flag"
+    p = subprocess.Popen([sys.executable, str(tmp_path / "slow.py"), str(flag), where,
+                          "compile", "one.stl", "-o", str(out), "-q", "--no-risk"],
+                         cwd=tmp_path, env=env(), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    while not flag.exists():
+        assert p.poll() is None and time.monotonic() - t0 < 240, p.communicate()
+        time.sleep(0.02)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143, err
+    assert "Traceback" not in err
+    names = set(os.listdir(out))
+    assert not [n for n in names if n.startswith(".stlc-stage-")], names
+    for name, text in USER.items():
+        assert (out / name).read_text() == text
+    now = {n: (out / n).read_text() for n in old}
+    if where == "write":
+        assert now == old
+    else:  # published whole: every recorded file is the new run's
+        assert json.loads(now[directory.MANIFEST])["files"] == sorted(set(old) -
+                                                                       {directory.MANIFEST})
+        assert not [n for n, text in now.items() if text.startswith("previous")]
+        assert json.loads(now["solution.json"])["status"] == "satisfied"

@@ -152,5 +152,84 @@ def test_ctrl_c_leaves_finished_rows(tmp_path):
     assert 2 <= len(rs) < 40 and {x["status"] for x in rs} == {"satisfied"}
     assert sorted(os.listdir(out / "plans")) == sorted(f"{x['instance']}.csv" for x in rs)
     assert json.loads((out / "sweep.json").read_text())["interrupted"] is True
-    assert sorted(os.listdir(out)) == ["mine.txt", "plans", "sweep.csv", "sweep.html",
-                                       "sweep.json"]
+    assert sorted(os.listdir(out)) == [".stlc-outputs.json", "mine.txt", "plans", "sweep.csv",
+                                       "sweep.html", "sweep.json"]
+    assert json.loads((out / ".stlc-outputs.json").read_text())["sweep"] == sorted(
+        ["sweep.csv", "sweep.html", "sweep.json", *(f"plans/{x['instance']}.csv" for x in rs)])
+
+
+USER = {"trajectory.final.csv": "t,x\n0,1\n", "trajectory.backup.csv": "mine\n",
+        "notes.txt": "user notes\n", "plans/7.csv": "my own plan\n",
+        "plans/notes.md": "mine\n"}
+
+
+def test_sweep_output_directory_is_under_the_manifest(tmp_path):
+    """`-o .` in a directory of user files (issue 23): every user file survives a sweep —
+    also one named like a sweep's plan that no sweep recorded (`plans/7.csv`); a second
+    sweep replaces and removes only what the first recorded; a compile into the same
+    directory and a sweep keep each other's files."""
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    (out / "plans").mkdir(parents=True)
+    for name, text in USER.items():
+        (out / name).write_text(text)
+
+    def user_files_intact():
+        for name, text in USER.items():
+            assert (out / name).read_text() == text, name
+
+    def sweep(n: int) -> subprocess.CompletedProcess:
+        r = stlc("sweep", str(f), "--mission", "m", "--vary", f"T=2.6 s:3 s:{n}",
+                 "--workers", "1", "-o", ".", "-q", cwd=out)
+        assert r.returncode == 0, r.stderr
+        return r
+
+    def recorded(key: str) -> list[str]:
+        return json.loads((out / ".stlc-outputs.json").read_text()).get(key, [])
+
+    sweep(2)
+    user_files_intact()
+    assert sorted(os.listdir(out / "plans")) == ["0.csv", "1.csv", "7.csv", "notes.md"]
+    assert recorded("sweep") == ["plans/0.csv", "plans/1.csv", "sweep.csv", "sweep.html",
+                                 "sweep.json"]
+    r = stlc("compile", str(f), "-o", ".", "-q", "--no-risk", cwd=out)
+    assert r.returncode == 0, r.stderr
+    user_files_intact()
+    assert len(rows(out)) == 2 and (out / "plans" / "1.csv").is_file()  # kept by compile
+    assert recorded("files") == ["report.html", "solution.json", "trajectory.csv"]
+    assert len(recorded("sweep")) == 5
+    solution = (out / "solution.json").read_text()
+    sweep(1)  # replaces the first sweep's set: its plans/1.csv goes, nothing else
+    user_files_intact()
+    assert sorted(os.listdir(out / "plans")) == ["0.csv", "7.csv", "notes.md"]
+    assert len(rows(out)) == 1
+    assert (out / "solution.json").read_text() == solution  # the compile's set is kept
+    assert recorded("files") == ["report.html", "solution.json", "trajectory.csv"]
+    assert not [n for n in os.listdir(out) if n.startswith(".stlc-stage-")]
+
+
+def test_time_limit_is_each_instances_limit(tmp_path):
+    """`sweep --time-limit S` (issue 22): S bounds each instance from its start on its
+    worker, as `compile --time-limit` bounds a compile.  With 1 ms the worker's first
+    instance (its imports and first build inside the limit) is `stopped`; a later one may
+    still be `satisfied` by the MILP's minimal slice (the verdict is the exact monitor's,
+    as for compile); nothing else.  A stopped row's plan is judged like any: its robustness
+    is the one `stlc monitor` finds on plans/<i>.csv.  Exit 3; the limit is in sweep.json."""
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    r = stlc("sweep", str(f), "--mission", "m", "--vary", "T=2.6 s:3 s:2", "--workers", "1",
+             "--time-limit", "0.001", "-o", str(out), "-q")
+    assert r.returncode == 3, r.stderr
+    rs = rows(out)
+    assert rs[0]["status"] == "stopped" and rs[1]["status"] in ("stopped", "satisfied")
+    assert json.loads((out / "sweep.json").read_text())["time_limit_s"] == 0.001
+    m = stlc("monitor", str(f), "--set", "T=2.6 s", "--trace", str(out / "plans" / "0.csv"),
+             "--json")
+    assert m.returncode == 0, m.stderr
+    rho = json.loads(m.stdout)["specs"]["m"]["robustness"]
+    assert rho == pytest.approx(float(rs[0]["robustness"]), abs=1e-6)
+    r = stlc("sweep", str(f), "--mission", "m", "--vary", "T=2.6 s:3 s:2", "--time-limit",
+             "0", "-o", str(out))
+    assert r.returncode == 2 and "positive" in r.stderr

@@ -124,3 +124,62 @@ def test_mission_field():
             assert [d.code for d in e.diagnostics] == [code]
         else:
             raise AssertionError(bad)
+
+
+def test_default_limit_bounds_every_run(monkeypatch):
+    """No solve without a time limit (issue 23): a plan without `--time-limit` or
+    `time_limit` runs under the default, which a run that gives one replaces."""
+    assert deadline.DEFAULT_LIMIT_S >= 600  # generous: never binds a shipped mission
+    with deadline.limited(None):
+        assert deadline.active() and deadline.is_default()
+        assert deadline.limit() == deadline.DEFAULT_LIMIT_S
+        assert deadline.progress_note() == ""  # the default is not shown as a countdown
+        assert "ipopt.max_wall_time" in deadline.ipopt_options()
+    assert not deadline.active()
+    with deadline.limited(7.0):
+        assert not deadline.is_default() and deadline.limit() == 7.0
+        with deadline.bounded():  # a limit already active is kept
+            assert deadline.limit() == 7.0
+    monkeypatch.setenv("STLC_DEFAULT_TIME_LIMIT", "1e-3")
+    prog = _program()
+    _, sol = plan(prog, prog.missions["m"], backend="nlp")  # no limit given: the default
+    assert not deadline.active()
+    assert sol.solver["stopped_by"] == "time_limit" and sol.solver["time_limit_s"] == 1e-3
+    assert sol.solver["time_limit_default"] is True
+    assert any("the default limit" in n for n in sol.notes)
+    rho = float(monitor.robustness(prog.missions["m"].requirement, 0.1, sol.channels, {}))
+    assert sol.robustness_exact == rho
+
+
+def test_default_limit_stops_a_long_compile(tmp_path):
+    """The command-line contract of a run stopped by the default limit: the best verified
+    plan written, `stopped` (or `satisfied`), exit 3 (or 0), never a hang."""
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "stlc", "compile", str(PATROL), "-o", str(out),
+                        "-q"], capture_output=True, text=True, timeout=300,
+                       env={**_env(), "STLC_DEFAULT_TIME_LIMIT": "4"})
+    assert r.returncode in (0, 3), r.stderr
+    sol = json.loads((out / "solution.json").read_text())
+    assert sol["solver"]["stopped_by"] == "time_limit" and sol["solver"]["time_limit_s"] == 4
+    assert sol["solver"]["time_limit_default"] is True
+    assert sol["status"] == ("satisfied" if r.returncode == 0 else "stopped")
+
+
+def test_watchdog_writer_sees_the_planning_threads_limit():
+    """The limit is per thread (a sweep's instances in one Dask worker's threads keep their
+    own); the watchdog's writer, run from the timer thread while the planning thread is
+    stuck in one C call (here a sleep), sees the planning thread's limit and its exit code
+    ends the process."""
+    script = (
+        "import time\nfrom stlc import deadline\n"
+        "def writer():\n"
+        "    print('writer', deadline.active(), deadline.limit(), deadline.is_default(),"
+        " flush=True)\n"
+        "    return 3\n"
+        "with deadline.limited(0.2, overrun=writer):\n"
+        "    time.sleep(20)\n"
+        "print('not reached')\n")
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                       env=_env(), timeout=60)
+    assert r.returncode == 3, r.stderr
+    assert r.stdout.split() == ["writer", "True", "0.2", "False"]

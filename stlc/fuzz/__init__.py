@@ -25,8 +25,9 @@ Inputs come in five kinds, each made from a seed (so every failure can be replay
 Each input runs in a worker process with a time limit and is classified as *diagnosed*
 (exit 1, every diagnostic located at a line of the file), *accepted* (exit 0; for a
 monitor, ``--json`` output must parse as strict JSON), *internal* (any other exception),
-*hang* (over the time limit), *mem* (over the memory cap), *dataloss*, *unlocated* (a diagnostic at line 0 or past the end of the
-file) or *badjson*.  The report is a table of kind × class; failing inputs are saved.
+*hang* (over the time limit; a whole command runs with ``--time-limit`` a third of it, so
+its own limit was not kept), *mem* (over the memory cap), *dataloss*, *unlocated* (a
+diagnostic at line 0 or past the end of the file) or *badjson*.  The report is a table of kind × class; failing inputs are saved.
 """
 
 from __future__ import annotations

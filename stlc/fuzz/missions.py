@@ -8,7 +8,9 @@ changed one as ``dataloss``).
 ``run_command`` is called by ``stlc.fuzz.runner`` in its worker process, which runs every
 input under a memory cap (``mem``: a ``MemoryError``, or a peak resident size above the
 cap, measured per input by resetting the kernel's high-water mark) and a time limit
-(``hang``).
+(``hang``).  Every command gets ``--time-limit`` (``TIME_LIMIT``, a third of the runner's
+limit for its kind): a run must end within its own limit (with the best verified plan,
+``stopped``, exit 3, when the limit binds), so ``hang`` means the limit was not kept.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ USER_FILES = {"trajectory.final.csv": "t,x\n0,1\n", "trajectory.backup.csv": "mi
               "notes.txt": "user notes\n", "risk.json": "{\"mine\": true}\n"}
 MEM_KINDS = ("simulate", "team", "resource")
 MAX_MEMORY = "768M"  # the commands' planning budget, under the runner's cap (1 GB)
+#: each command's ``--time-limit`` (s): a third of ``runner.MIN_TIMEOUT`` of its kind
+TIME_LIMIT = {"simulate": 20.0, "team": 40.0, "resource": 10.0}
 
 
 def _pick(rng: random.Random, common: list[str], odd: list[str], p: float = 0.15) -> str:
@@ -143,7 +147,7 @@ def make(kind: str, seed: int) -> dict:
     stl, args = GENERATORS[kind](rng)
     command = {"simulate": "simulate", "team": "compile", "resource": "compile"}[kind]
     return {"kind": kind, "seed": seed, "stl": stl, "trace": None,
-            "command": [command, *args]}
+            "command": [command, *args, "--time-limit", f"{TIME_LIMIT[kind]:g}"]}
 
 
 def run_command(case: dict) -> tuple[str, str]:

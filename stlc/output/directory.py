@@ -1,5 +1,5 @@
-"""The output directory of ``stlc compile`` / ``simulate`` / ``risk``: what stlc may write
-there, and how.
+"""The output directory of ``stlc compile`` / ``simulate`` / ``risk`` / ``sweep``: what stlc
+may write there, and how.
 
 Contract (README, "Output directory"):
 
@@ -12,7 +12,11 @@ Contract (README, "Output directory"):
   later complete set removes only the files the previous manifest lists and this set does
   not have (a ``risk.json`` of a run with risk cases, a team's per-drone trajectories); a
   file with an owned-looking name that no manifest lists (a user's
-  ``trajectory.final.csv``) is never removed.
+  ``trajectory.final.csv``) is never removed.  ``stlc sweep``'s set (``SWEEP_OWNED`` and
+  ``plans/<i>.csv``) is recorded under its own key of the same manifest (``FAMILIES``): a
+  sweep replaces only what the last sweep wrote, a compile only what the last compile
+  wrote, and neither removes the other's files (nor a user's ``plans/7.csv`` no sweep
+  recorded).
 * Each run writes its files into a private staging directory inside DIR
   (``.stlc-stage-XXXXXX``), then, holding an exclusive ``flock`` on DIR itself, moves them
   into place one by one with ``os.replace`` (atomic per file, same file system), then the
@@ -48,22 +52,43 @@ _PER_DRONE = re.compile(r"trajectory\.[A-Za-z_][A-Za-z0-9_]*\.csv")
 STAGE_PREFIX = ".stlc-stage-"
 
 
+#: ``stlc sweep``'s outputs, besides ``plans/<i>.csv`` (one per planned instance)
+SWEEP_OWNED = ("sweep.csv", "sweep.json", "sweep.html")
+_SWEEP_PLAN = re.compile(r"plans/[0-9]+\.csv")
+
+
 def owned(name: str) -> bool:
     """Could ``name`` be one of stlc's outputs?  (A necessary condition for writing or
     removing it, not a sufficient one: see ``recorded``.)"""
     return name in OWNED or _PER_DRONE.fullmatch(name) is not None
 
 
-def recorded(outdir: str) -> set[str]:
-    """The output names the manifest of ``outdir`` lists (the set an earlier run
-    published there); a missing or unreadable manifest lists nothing."""
+def sweep_owned(name: str) -> bool:
+    """Could ``name`` (relative, ``/``-separated) be one of ``stlc sweep``'s outputs?"""
+    return name in SWEEP_OWNED or _SWEEP_PLAN.fullmatch(name) is not None
+
+
+#: the manifest's keys, each an output set of its own (compile/simulate/risk; sweep) with
+#: the names it may hold
+FAMILIES = {"files": owned, "sweep": sweep_owned}
+
+
+def _manifest(outdir: str) -> dict:
     try:
         with open(os.path.join(outdir, MANIFEST), encoding="utf-8") as fh:
-            data = json.loads(fh.read(1 << 16))
-        files = data.get("files", []) if isinstance(data, dict) else []
+            data = json.loads(fh.read(1 << 20))
     except (OSError, ValueError):
-        return set()
-    return {f for f in files if isinstance(f, str) and owned(f)}
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def recorded(outdir: str, key: str = "files") -> set[str]:
+    """The output names the manifest of ``outdir`` lists under ``key`` (the set an earlier
+    run of that family published there); a missing or unreadable manifest lists nothing."""
+    files = _manifest(outdir).get(key, [])
+    ok = FAMILIES[key]
+    return {f for f in files if isinstance(f, str) and ok(f)} if isinstance(files, list) \
+        else set()
 
 
 def _fail(message: str, span: Span, help_: str) -> StlcError:
@@ -82,9 +107,11 @@ def _probe(directory: str) -> str | None:
     return None
 
 
-def preflight(outdir: str, span: Span) -> None:
+def preflight(outdir: str, span: Span, names: tuple[str, ...] = (*OWNED, MANIFEST),
+              dirs: tuple[str, ...] = ()) -> None:
     """Raise ``StlcError`` (STL605) unless ``outdir`` exists as a writable directory or can
-    be created; has no side effect on the file system (it creates nothing that stays)."""
+    be created, where each of ``names`` that exists is a regular file and each of ``dirs``
+    a directory; has no side effect on the file system (it creates nothing that stays)."""
     if not outdir:
         raise _fail("the output directory name is empty", span,
                     "give a directory with `-o DIR`, e.g. `-o reports`")
@@ -106,11 +133,16 @@ def preflight(outdir: str, span: Span) -> None:
         raise _fail(f"cannot write to output directory `{outdir}`: {why}", span,
                     f"check the permissions of `{existing}`, or choose another `-o DIR`")
     if existing == path:
-        for name in (*OWNED, MANIFEST):
+        for name in names:
             p = os.path.join(path, name)
             if os.path.lexists(p) and not os.path.isfile(p):
                 raise _fail(f"cannot replace `{p}`: it is not a regular file", span,
                             "stlc replaces only its own output files; move it away")
+        for name in dirs:
+            p = os.path.join(path, name)
+            if os.path.lexists(p) and not os.path.isdir(p):
+                raise _fail(f"cannot write into `{p}`: it is not a directory", span,
+                            "move it away, or choose another `-o DIR`")
 
 
 def _umask() -> int:
@@ -131,34 +163,57 @@ def _locked(directory: str) -> Iterator[None]:
 
 
 def _cleanup(stage: str) -> None:
-    """Remove what this run wrote into its staging directory, then the directory."""
+    """Remove what this run wrote into its staging directory (and its sub-folders: a
+    sweep's ``plans``), then the directory."""
     with contextlib.suppress(OSError):
         for name in os.listdir(stage):
+            p = os.path.join(stage, name)
+            if os.path.isdir(p) and not os.path.islink(p):
+                _cleanup(p)
             with contextlib.suppress(OSError):
-                os.unlink(os.path.join(stage, name))
+                os.unlink(p)
         os.rmdir(stage)
 
 
-def publish(stage: str, outdir: str, complete: bool = True) -> list[str]:
+def _staged_names(stage: str) -> list[str]:
+    """The files of ``stage``, relative and ``/``-separated (one level of sub-folders)."""
+    out = []
+    for name in os.listdir(stage):
+        p = os.path.join(stage, name)
+        if os.path.isdir(p):
+            out += [f"{name}/{n}" for n in os.listdir(p)]
+        else:
+            out.append(name)
+    return out
+
+
+def publish(stage: str, outdir: str, complete: bool = True, key: str = "files") -> list[str]:
     """Move the files of ``stage`` into ``outdir`` (under the directory lock), record the
-    set in the manifest and, when the stage is a ``complete`` set (``stlc compile``,
-    ``simulate``), remove the files the previous manifest lists that this set does not
+    set in the manifest under ``key`` (``FAMILIES``; the other families' records are kept)
+    and, when the stage is a ``complete`` set (``stlc compile``, ``simulate``, ``sweep``),
+    remove the files the previous manifest lists under ``key`` that this set does not
     have; ``stlc risk`` adds its two files to the recorded set.  Returns the names."""
-    names = sorted(n for n in os.listdir(stage) if owned(n))
+    names = sorted(n for n in _staged_names(stage) if FAMILIES[key](n))
     mode = 0o666 & ~_umask()
     with _locked(outdir), interrupt.deferred():
-        before = recorded(outdir)
+        before = recorded(outdir, key)
         now = set(names) if complete else before | set(names)
+        record = {k: sorted(recorded(outdir, k)) for k in FAMILIES if k != key}
+        record = {k: v for k, v in record.items() if v}
         manifest = os.path.join(stage, MANIFEST)
         with open(manifest, "w", encoding="utf-8") as fh:
-            json.dump({"written_by": "stlc", "files": sorted(now)}, fh, indent=1)
+            json.dump({"written_by": "stlc", **record, key: sorted(now)}, fh, indent=1)
         for name in [*names, MANIFEST]:
             src = os.path.join(stage, name)
+            dst = os.path.join(outdir, name)
+            if "/" in name:
+                os.makedirs(os.path.dirname(dst), exist_ok=True)
             os.chmod(src, mode)
-            os.replace(src, os.path.join(outdir, name))
+            os.replace(src, dst)
         for name in sorted(before - now):
             p = os.path.join(outdir, name)
-            if os.path.isfile(p) and not os.path.islink(p):
+            if os.path.isfile(p) and not os.path.islink(p) \
+                    and not os.path.islink(os.path.dirname(p)):
                 os.unlink(p)
     return names
 

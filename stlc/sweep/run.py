@@ -3,9 +3,11 @@ one task per instance, show progress, collect rows, write the outputs.
 
 Outputs (DIR, default ``reports/<mission>-sweep``): ``sweep.csv``, ``plans/<i>.csv``,
 ``sweep.json``, ``sweep.html``.  They are written into a private staging directory and
-moved into place under the directory lock at the end — also after Ctrl-C (rows for the
-instances that finished; the rest cancelled) — so DIR never holds a half-written file, and
-stlc removes only its own files of an earlier sweep (``plans/<digits>.csv``).
+published under the directory lock at the end (``stlc.output.directory.publish``, the
+manifest's ``sweep`` record) — also after Ctrl-C or SIGTERM (rows for the instances that
+finished; the rest cancelled) — so DIR never holds a half-written file, and a sweep removes
+only the files the manifest records for the last sweep into DIR: never a user's file nor a
+compile's outputs, whatever their names.
 """
 
 from __future__ import annotations
@@ -17,7 +19,6 @@ import json
 import logging
 import math
 import os
-import re
 import sys
 import tempfile
 import time
@@ -27,10 +28,6 @@ import numpy as np
 from stlc import interrupt
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.sweep import axes as axes_mod
-
-OWNED = ("sweep.csv", "sweep.json", "sweep.html")
-_PLAN = re.compile(r"\d+\.csv")
-
 
 def _progress(done: int, total: int, sat: int, t0: float, quiet: bool) -> None:
     if quiet:
@@ -65,9 +62,12 @@ def _client(workers: int | None, scheduler: str | None, path: str):
 
 def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | None,
           workers: int | None = None, scheduler: str | None = None,
-          random: int | None = None, seed: int = 0, quiet: bool = False) -> int:
+          random: int | None = None, seed: int = 0, quiet: bool = False,
+          time_limit: float | None = None) -> int:
+    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``)."""
     from stlc.frontend.syntax import parse_file
-    from stlc.output.directory import preflight
+    from stlc.output.directory import (MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup,
+                                       preflight)
     from stlc.pipeline import select_missions
     from stlc.semantics import overrides
 
@@ -98,9 +98,15 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
                                         + " | ".join(x.name for x in ms))])
         m = ms[0]
     outdir = out if out is not None else os.path.join("reports", f"{m.name}-sweep")
-    preflight(outdir, m.span if m.span.known else Span(path, 1, 1, 1, 2))
-    os.makedirs(outdir, exist_ok=True)
-    stage = tempfile.mkdtemp(prefix=".stlc-stage-", dir=outdir)
+    span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
+    preflight(outdir, span, names=(*SWEEP_OWNED, MANIFEST), dirs=("plans",))
+    try:
+        os.makedirs(outdir, exist_ok=True)
+        stage = tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=outdir)
+    except OSError as e:
+        raise StlcError([Diagnostic("STL605", f"cannot create output directory `{outdir}`: "
+                                    f"{e.strerror or e}", span, "choose another `-o DIR`")]
+                        ) from None
     os.makedirs(os.path.join(stage, "plans"))
     rows: dict[int, dict] = {}
     client = cluster = None
@@ -113,7 +119,8 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
         for i, inst in enumerate(insts):
             items = fixed + [(n, t) for n, _, t in inst]
             futs[client.submit(run_instance, source, path, m.name, items,
-                               {n: v for n, v, _ in inst}, i, pure=False, retries=1)] = i
+                               {n: v for n, v, _ in inst}, i, time_limit=time_limit,
+                               pure=False, retries=1)] = i
         pending = set(futs)
         sat = 0
         _progress(0, len(insts), 0, t0, quiet)
@@ -150,7 +157,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
             if client is not None and interrupted:
                 client.cancel(list(futs))
             summary = _write(stage, outdir, path, m.name, axes, insts, rows, wall, fixed,
-                             workers, scheduler, interrupted, random, seed)
+                             workers, scheduler, interrupted, random, seed, time_limit)
         finally:
             _cleanup(stage)
     _close(client, cluster)
@@ -168,16 +175,6 @@ def _close(client, cluster) -> None:
     with contextlib.suppress(Exception):
         if cluster is not None:
             cluster.close(timeout=5)
-
-
-def _cleanup(stage: str) -> None:
-    for sub in ("plans", ""):
-        d = os.path.join(stage, sub)
-        with contextlib.suppress(OSError):
-            for n in os.listdir(d):
-                with contextlib.suppress(OSError):
-                    os.unlink(os.path.join(d, n))
-            os.rmdir(d)
 
 
 def quantiles(x: list[float]) -> dict:
@@ -205,8 +202,8 @@ def _csv(axes, rows: list[dict], spec_names: list[str]) -> str:
 
 
 def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, workers,
-           scheduler, interrupted, random=None, seed=0) -> dict:
-    from stlc.output.directory import _locked
+           scheduler, interrupted, random=None, seed=0, time_limit=None) -> dict:
+    from stlc.output.directory import publish
     from stlc.strictjson import strict
     from stlc.sweep.report import render
 
@@ -235,6 +232,7 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         "t_c_note": "p95 of solve_s over the instances: paper A §4.4's estimate of the "
                     "replanning budget t_c",
         "random": random, "seed": seed if random is not None else None,
+        "time_limit_s": time_limit,  # per instance; None: the default limit
         "scheduler": scheduler or f"LocalCluster({workers or os.cpu_count()} processes, "
                                   "1 thread each)",
         "workers": per_worker,
@@ -247,31 +245,14 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         json.dump(strict(summary), fh, indent=2, allow_nan=False)
     with open(os.path.join(stage, "sweep.html"), "w") as fh:
         fh.write(render(summary, axes, rows, spec_names))
-    mode = 0o666 & ~_umask()
-    with _locked(outdir):
-        plans_dir = os.path.join(outdir, "plans")
-        os.makedirs(plans_dir, exist_ok=True)
-        mine = set(os.listdir(os.path.join(stage, "plans")))
-        for n in sorted(mine):
-            src = os.path.join(stage, "plans", n)
-            os.chmod(src, mode)
-            os.replace(src, os.path.join(plans_dir, n))
-        for n in os.listdir(plans_dir):  # an earlier sweep's plans that this one has not
-            p = os.path.join(plans_dir, n)
-            if _PLAN.fullmatch(n) and n not in mine and os.path.isfile(p) \
-                    and not os.path.islink(p):
-                os.unlink(p)
-        for n in OWNED:
-            src = os.path.join(stage, n)
-            os.chmod(src, mode)
-            os.replace(src, os.path.join(outdir, n))
+    try:
+        publish(stage, outdir, complete=True, key="sweep")
+    except OSError as e:
+        raise StlcError([Diagnostic("STL605", f"cannot write the sweep's outputs to `{outdir}`: "
+                                    f"{e.strerror or e}", Span(path, 1, 1, 1, 2),
+                                    "check free space and permissions, or choose another "
+                                    "`-o DIR`")]) from None
     return summary
-
-
-def _umask() -> int:
-    old = os.umask(0o022)
-    os.umask(old)
-    return old
 
 
 def _summary_text(s: dict, outdir: str) -> str:

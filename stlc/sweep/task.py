@@ -28,8 +28,14 @@ def _worker_name() -> str:
 
 
 def run_instance(source: str, path: str, mission: str, items: list[tuple[str, str]],
-                 values: dict[str, float], index: int, warm: bool = True) -> dict:
-    """Plan and verify one instance; never raises for a bad instance (status ``failed``)."""
+                 values: dict[str, float], index: int, warm: bool = True,
+                 time_limit: float | None = None) -> dict:
+    """Plan and verify one instance; never raises for a bad instance (status ``failed``).
+    ``time_limit`` (s, ``stlc sweep --time-limit``) bounds this instance from its start on
+    its worker, as ``compile --time-limit`` bounds a compile (no watchdog in a worker: an
+    NLP build is not cut); an instance it stops is ``stopped`` (or ``satisfied`` if the
+    exact monitor says so); without it the default limit applies (``stlc.deadline``)."""
+    from stlc import deadline
     from stlc.backends import nlp_cache
 
     os.environ.setdefault("STLC_NO_FORK", "1")  # no fork inside a Dask worker process
@@ -40,7 +46,8 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
                  "plan_csv": None}
     builds = nlp_cache.STATS["builds"]
     try:
-        row.update(_plan(source, path, mission, items, values, warm))
+        with deadline.bounded(time_limit):
+            row.update(_plan(source, path, mission, items, values, warm))
     except Exception as e:  # noqa: BLE001 - one instance's failure is a row, not a lost sweep
         from stlc.diagnostics import StlcError
 
