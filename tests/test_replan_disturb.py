@@ -296,3 +296,6 @@ def test_bad_replan_settings_and_values_raise(point):
     with pytest.raises(DisturbanceError, match="not finite"):
         simulate_disturbances(problem, plan, [model.Disturbance("p1", 1.0, (math.nan, 0, 0))],
                               cfg)
+    with pytest.raises(DisturbanceError, match="beyond 1000 m"):  # fuzz: 1e300 m hung replans
+        simulate_disturbances(problem, plan, [model.Disturbance("p1", 1.0, (1e300, 0, 0))],
+                              cfg)

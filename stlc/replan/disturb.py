@@ -85,6 +85,10 @@ DEFECT_NOTE = 1e-6
 __all__ = ["DisturbanceError", "KeptSpecError", "simulate_disturbances"]
 
 
+MAX_PUSH_M = 1e3  #: per axis: a larger displacement is no disturbance but a teleport
+MAX_KICK = 1e2  #: m/s per axis
+
+
 class DisturbanceError(ValueError):
     """A disturbance that cannot be applied (unknown vehicle, time outside the horizon, a
     value that is not finite)."""
@@ -137,6 +141,11 @@ def _check(problem, disturbances: list[model.Disturbance], cfg: model.ReplanConf
         if not all(math.isfinite(x) for x in (*d.displacement, *d.velocity)):
             raise DisturbanceError(d, f"disturbance of `{d.vehicle}` at {d.time:g} s is not "
                                    "finite")
+        if max(map(abs, d.displacement)) > MAX_PUSH_M or max(map(abs, d.velocity)) > MAX_KICK:
+            # a "push" of 1e300 m made every replan NaN and the event loop run on (fuzz)
+            raise DisturbanceError(d, f"disturbance of `{d.vehicle}` at {d.time:g} s is "
+                                   f"beyond {MAX_PUSH_M:g} m or {MAX_KICK:g} m/s per axis: "
+                                   "not a push the vehicle can recover from")
         if d.vehicle not in team:
             raise DisturbanceError(d, f"disturbance of `{d.vehicle}`, which is not in mission "
                                    f"`{problem.mission.name}` ({', '.join(problem.team)})")
