@@ -13,7 +13,6 @@ from stlc.backends import milp_seed, schedule
 from stlc.planning.problem import from_mission
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
-
 from tests.test_milp import INFEASIBLE
 
 # a small box near the start (robustness ≤ 0.05) and a large one behind a wall (≤ 0.5):

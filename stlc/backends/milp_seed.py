@@ -16,21 +16,25 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
   temporal operator — so every window of the formula falls on seed samples;
 * the STL→MILP encoding of ``milp_encode`` (a binary per branch of every disjunction: the
   side of every obstacle, the sample of every ``eventually``, the branch of every ``or``)
-  maximises the robustness ρ̂ minus a small L1 penalty on the accelerations (a smooth,
-  economical path among the most robust ones), under HiGHS with a time limit.
+  is solved by HiGHS in three phases (``_solve``): a path with ρ̂ ≥ κ, a shorter one from it
+  (L1 acceleration penalty, choices free, ``IMPROVE_S`` at most), then the LP with that
+  path's binaries fixed maximising ρ̂ minus the penalty, under ``TIME_LIMIT_S`` in all.
 
 The seed path is exact between seed samples (piecewise-constant acceleration), so it is
-sampled onto the mission grid as positions, velocities and accelerations — the channels the
-NLP's guess (``schedule.full_guess``) lifts to the vehicle's states and inputs.  The NLP's
-first robustness stage then keeps the seed's discrete choices (``choices.choose`` on the
+sampled onto the mission grid; the kinematic NLP (``schedule.kinematic_guess(problem,
+path=…)``) smooths it at the mission step with the seed's choices fixed, and its path is
+what the NLP's guess (``schedule.full_guess``) lifts to the vehicle's states and inputs.
+The NLP's first robustness stage then keeps the same choices (``choices.choose`` on the
 lifted guess: the branch with the largest margin per sample, the best sample per window),
 and only if that misses κ solves the formula as written.
 
 When the MILP cannot be built (a position predicate that is not affine), finds no path in
 its time limit, or the mission has no predicate on positions, the seed is the kinematic
-guess as before; ``Solution.solver`` says which ran.  The seed proves nothing: it is
-neither a relaxation (inner bounds, coarse samples) nor the verdict (the exact monitor judges
-the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_conflict``'s.
+guess as before; ``Solution.solver`` says which ran.  ``next_seed`` gives the next-best
+discrete choice (a no-good cut on this seed's binaries for the conjuncts a plan violates),
+which ``pipeline`` tries when the plan from this seed misses κ.  The seed proves nothing: it
+is neither a relaxation (inner bounds, coarse samples) nor the verdict (the exact monitor
+judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_conflict``'s.
 """
 
 from __future__ import annotations
@@ -155,7 +159,6 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     0/1 values)} — a no-good cut: at least one of those binaries differs.  The record's
     ``choices`` are this seed's, in the same form, for every conjunct of the seed formula."""
     from stlc.backends.milp_backend import build, invariant_box
-    from stlc.backends.milp_model import Highs
 
     t0 = time.perf_counter()
     f = seed_formula(problem)
@@ -225,9 +228,10 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
     acceleration penalty under ρ̂ ≥ κ for at most ``IMPROVE_S`` (a feasibility solution's
     choices at samples where nothing binds are arbitrary: a path that wanders); then, with
     the incumbent's binaries fixed — its discrete choices —, the LP maximising ρ̂ − penalty
-    (the most robust, economical path of that homotopy class).  When no path reaches κ (or
-    none was found in time), the whole MILP maximises ρ̂ − penalty in the time left and its
-    incumbent is the seed."""
+    (the most robust, economical path of that homotopy class).  When HiGHS proves that no
+    path reaches κ, that result is returned at once (the caller asks the sound relaxation
+    for a proof); when none was found in time, the whole MILP maximises ρ̂ − penalty in the
+    time left and its incumbent, if any, is the seed."""
     from stlc.backends.milp_model import Highs
 
     t0 = time.perf_counter()
@@ -236,7 +240,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
     best = None
     if top >= 0:
         h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6)
-        h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
+        h.set_col_bounds(top, min(max(milp.lo[top], kappa), milp.hi[top]), milp.hi[top])
         best = h.solve()
         phases.append(("feasibility", best.status, best.wall_s))
         if best.status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
@@ -245,7 +249,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
             penalty = {j: c for j, c in cost.items() if j != top}
             h = Highs(milp, penalty, time_limit=min(IMPROVE_S, left() - POLISH_S),
                       rel_gap=IMPROVE_GAP, abs_gap=1e-6)
-            h.set_col_bounds(top, max(milp.lo[top], kappa), milp.hi[top])
+            h.set_col_bounds(top, min(max(milp.lo[top], kappa), milp.hi[top]), milp.hi[top])
             h.start(best.x)
             res = h.solve()
             phases.append(("shortest path (choices free)", res.status, res.wall_s))
