@@ -81,8 +81,8 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
     _budget_option(k)
     k.add_argument("--backend", metavar="NAME", default=None,
-                   help="force a backend chain: milp | nlp | team (or a backend's name); "
-                   "default: chosen by capabilities")
+                   help="force a backend chain: milp | nlp | kinematic | team (or a "
+                   "backend's name); default: chosen by capabilities")
     k.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="stop planning after SECONDS and write the best verified plan")
     k.add_argument("--deny-warnings", action="store_true", help="warnings are errors "
