@@ -69,10 +69,11 @@ def test_the_seed_step_divides_the_horizon_and_every_bound(bounds, dt, n_int, wa
 
 
 def test_a_long_fine_grid_is_coarsened_past_the_step_cap():
-    # 60 s at 0.1 s with bounds on whole seconds: 0.5 s gives 121 samples (allowed), 0.1 s 601
+    # 60 s at 0.1 s with bounds on whole seconds: 0.5 s would keep 121 samples, more than
+    # MAX_SAMPLES (61), so the seed steps 1 s (61 samples), not 2 s
     f = _always(0.0, 60.0)
-    assert milp_seed.seed_factor(TimeGrid(0.1, 600), f) * 0.1 == pytest.approx(0.5)
-    # at most MAX_SAMPLES samples when the bounds allow a coarser step
+    assert milp_seed.MAX_SAMPLES == 61
+    assert milp_seed.seed_factor(TimeGrid(0.1, 600), f) * 0.1 == pytest.approx(1.0)
     m = milp_seed.seed_factor(TimeGrid(0.1, 1200), f)
     assert 1200 // m + 1 <= milp_seed.MAX_SAMPLES
 

@@ -36,6 +36,10 @@ TIME_LIMIT_S = 60.0  #: default wall-time limit of one MILP solve (a mission may
 #: unconverged unforced solve then falls back to the `nlp` chain (``pipeline._fallback``)
 
 KAPPA_MARGIN = 1e-6  #: the feasibility phase asks ρ̂ ≥ κ + this
+#: past this many binaries the default limit is LARGE_LIMIT_S: the 60 s patrol at 0.2 s (≈ 12k
+#: binaries) found no incumbent in 120 s, while the `nlp` fallback planned it in 48 s
+LARGE_BINARIES = 3000
+LARGE_LIMIT_S = 20.0
 
 HIGHS_STATUS_MAP = {
     "Optimal": SolverStatus.OPTIMAL,
@@ -216,10 +220,12 @@ class ExactMilp(Backend):
         low.box = box
         return low, low
 
-    def _limit(self, problem: PlanningProblem) -> float:
+    def _limit(self, problem: PlanningProblem, low: Lowered) -> float:
         t = problem.time_limit
-        if t is None:
-            t = self.time_limit if self.time_limit is not None else TIME_LIMIT_S
+        if t is None and self.time_limit is not None:
+            t = self.time_limit
+        if t is None:  # a large model gets less before the `nlp` fallback (MILP seed + NLP)
+            t = TIME_LIMIT_S if low.milp.n_binaries <= LARGE_BINARIES else LARGE_LIMIT_S
         return float(min(float(t), max(deadline.solve_remaining(), 0.01)))
 
     def solve(self, low: Lowered, problem: PlanningProblem):
@@ -228,7 +234,7 @@ class ExactMilp(Backend):
         then ρ̂ maximised from it as a MIP start.  Inside the invariant box a negative
         optimum proves nothing, so then the whole problem is solved again."""
         t0 = time.perf_counter()
-        limit = self._limit(problem)
+        limit = self._limit(problem, low)
         res = self._two_phase(low, problem, limit)
         if low.box and not (res.x is not None and -res.objective >= 0):
             full = build(problem, {"requirement": problem.requirement})

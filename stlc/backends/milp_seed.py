@@ -53,7 +53,7 @@ from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 
 MAX_STEP_S = 0.5  #: the coarsest seed step (corner cuts between samples stay ≲ v·h/2)
-MAX_SAMPLES = 121  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
+MAX_SAMPLES = 61  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
 TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
 ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
 IMPROVE_S = 1.5  #: at most this long shortening the first path (choices free)
