@@ -229,13 +229,19 @@ def _next_choices(problem, chain, sol, quiet: bool):
         tries.append({"seed": label, "exact": other.robustness_exact,
                       "status": str(other.status)})
         a, b = sol.robustness_exact, other.robustness_exact
-        if b == b and not (a == a and a >= b):
+        if _better(b, a):
             other.notes.append(f"planned from {label}: the MILP seed's plan had exact "
                                f"robustness {a:.6g}")
             sol = other
     if tries:
         sol.solver["chain"]["next_choices"] = tries
     return sol
+
+
+def _better(b: float, a: float) -> bool:
+    """Exact robustness ``b`` strictly beats ``a`` (NaN-safe: a NaN never wins, anything
+    beats a NaN)."""
+    return b == b and not (a == a and a >= b)
 
 
 def _falls_back(chain, sol) -> bool:
@@ -261,7 +267,7 @@ def _fallback(problem, first, quiet: bool):
     sol = _run_verified(problem, chain)
     sol.solver["chain"]["fallback_from"] = first.solver["chain"]
     a, b = first.robustness_exact, sol.robustness_exact
-    if b == b and not (a == a and a >= b):  # NaN-safe: the NLP's plan is strictly better
+    if _better(b, a):  # the NLP's plan is strictly better
         sol.notes.append(f"the exact MILP stopped without a satisfying plan "
                          f"({first.solver.get('return_status')}); this plan is the `nlp` "
                          f"chain's (local, not a global optimum)")

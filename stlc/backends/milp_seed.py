@@ -48,6 +48,7 @@ import numpy as np
 from stlc import deadline, vehicles
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_backend import KinematicGuess
+from stlc.backends.milp_backend import HIGHS_STATUS_MAP
 from stlc.backends.milp_encode import NotLinear
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
@@ -100,13 +101,9 @@ def seed_factor(grid: TimeGrid, formula: ir.Formula, max_step: float = MAX_STEP_
 def seed_formula(problem) -> ir.Formula:
     """The requirement with only its affine predicates on positions and velocities (every
     other predicate is ``true``)."""
-    from stlc.backends.milp_conflict import _drop_nonlinear
+    from stlc.backends.milp_conflict import _drop_nonlinear, _kept_channels
 
-    keep = set(problem.fixed_channels)
-    for v in problem.vehicles():
-        vm = vehicles.model_of(v)
-        sc = vm.state_channels(v)
-        keep |= set(sc[vm.pos_index()]) | set(sc[vm.vel_index()])
+    keep = _kept_channels(problem)  # positions, velocities and fixed channels
     return ir.restrict(_drop_nonlinear(problem.requirement, problem.params, {}),
                        lambda s: s in keep)
 
@@ -358,9 +355,7 @@ class MilpPathSeed(KinematicGuess):
         sol.solver.update({
             "name": rec["name"] if ok else "kinematic guess (after the MILP seed)",
             "status": str(SolverStatus.INFEASIBLE if proof is not None else
-                          SolverStatus.OPTIMAL if status == "Optimal" else
-                          SolverStatus.MAX_TIME if status == "Time limit reached" else
-                          SolverStatus.FAILED),
+                          HIGHS_STATUS_MAP.get(str(status), SolverStatus.FAILED)),
             "return_status": "infeasible" if proof is not None else str(status),
             "converged": status == "Optimal", "seed": rec})
         sol.timing.update({"guess_s": dt_s, "guess_cpu_s": cpu_s, "guess_wait_s": waited_s})

@@ -111,9 +111,7 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
     names = list(problem.team)
     keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
     f0 = f = ir.restrict(problem.requirement, lambda s: s in keep)
-    fixed = _start_choices(f, path, program.params, grid) if path else {}
-    if fixed:
-        f = choices.choice_form(f, windows=True)[0]
+    f, fixed = _start_choices(f, path, program.params, grid) if path else (f, {})
     syms, chans, g, lbx, ubx, x0 = [], {}, [], [], [], []
     rest = []  # (bound index, v_max) of each vehicle's last velocity held at rest
     obj = ca.SX(0)
@@ -165,11 +163,7 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
                             "ipopt.mu_strategy": "adaptive", **GUESS_ACCEPTABLE,
                             **{f"ipopt.{k}": v for k, v in MUMPS.items()},
                             **deadline.ipopt_options()})  # the run's time limit, if any
-        num_ch = {}
-        for name, (P0, V0, _) in _unpack(wx0, names, n, N).items():
-            for i, a in enumerate("xyz"):
-                num_ch[f"{name}.pos.{a}"], num_ch[f"{name}.vel.{a}"] = P0[i], V0[i]
-        num_ch.update(fixed)
+        num_ch = path_channels(_unpack(wx0, names, n, N)) | fixed
         aux0, _ = low.init_values(num_ch, program.params, GUESS_LAM)
 
         def run(lo, hi):
@@ -195,20 +189,18 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
     return _unpack(sol_w, names, n, N)
 
 
-def _start_choices(f: ir.Formula, start: dict, params, grid: TimeGrid) -> dict[str, np.ndarray]:
-    """The choice rows (``choices.choose``) of ``f`` on the start paths: the parameter signals
-    that fix its disjunctions and windows as the start path has them."""
+def _start_choices(f: ir.Formula, start: dict, params, grid: TimeGrid
+                   ) -> tuple[ir.Formula, dict[str, np.ndarray]]:
+    """``f`` in choice form and its choice rows (``choices.choose``) on the start paths: the
+    parameter signals that fix its disjunctions and windows as the start path has them
+    (``f`` itself and no rows when it has nothing to choose)."""
     if isinstance(f, (ir.TrueF, ir.FalseF)):
-        return {}
-    nodes = choices.choice_form(f, windows=True)[1]
+        return f, {}
+    fixed_form, nodes = choices.choice_form(f, windows=True)
     if not nodes:
-        return {}
-    ch = {}
-    for name, (P, V, _) in start.items():
-        for i, a in enumerate("xyz"):
-            ch[f"{name}.pos.{a}"], ch[f"{name}.vel.{a}"] = P[i], V[i]
-    return {k: np.asarray(v, float) for k, v in
-            choices.choose(nodes, ch, params, grid.n, f, grid.dt).items()}
+        return f, {}
+    return fixed_form, {k: np.asarray(v, float) for k, v in choices.choose(
+        nodes, path_channels(start), params, grid.n, f, grid.dt).items()}
 
 
 def _kinematic_rho(f: ir.Formula, w: np.ndarray, names: list[str], grid: TimeGrid,
@@ -216,11 +208,14 @@ def _kinematic_rho(f: ir.Formula, w: np.ndarray, names: list[str], grid: TimeGri
     """Exact robustness of the position/velocity part ``f`` on a kinematic vector."""
     from stlc.analysis import monitor
 
-    ch = {}
-    for name, (P, V, _) in _unpack(w, names, grid.n, grid.n_intervals).items():
-        for i, a in enumerate("xyz"):
-            ch[f"{name}.pos.{a}"], ch[f"{name}.vel.{a}"] = P[i], V[i]
+    ch = path_channels(_unpack(w, names, grid.n, grid.n_intervals))
     return float(monitor.robustness(f, grid.dt, ch, params))
+
+
+def path_channels(paths: dict) -> dict[str, np.ndarray]:
+    """Position and velocity channels of per-vehicle (P 3×n, V 3×n, A) paths."""
+    return {f"{name}.{fld}.{a}": X[i] for name, (P, V, _) in paths.items()
+            for fld, X in (("pos", P), ("vel", V)) for i, a in enumerate("xyz")}
 
 
 def _unpack(w: np.ndarray, names: list[str], n: int, N: int
