@@ -28,6 +28,8 @@ import numpy as np
 from stlc import interrupt
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.sweep import axes as axes_mod
+from stlc.sweep.order import Order
+
 
 def _progress(done: int, total: int, sat: int, t0: float, quiet: bool) -> None:
     if quiet:
@@ -39,6 +41,17 @@ def _progress(done: int, total: int, sat: int, t0: float, quiet: bool) -> None:
     eta_s = f"{eta:5.0f} s" if math.isfinite(eta) else "    ? s"
     print(f"\r[{bar:<{w}}] {done}/{total}  ETA {eta_s}  satisfied {sat}", end="",
           file=sys.stderr, flush=True)
+
+
+def _slots(client, workers: int | None, scheduler: str | None) -> int:
+    """Tasks kept in flight: one per worker thread of the cluster (≥ 1)."""
+    if not scheduler:
+        return workers or os.cpu_count() or 1
+    try:
+        info = client.scheduler_info().get("workers", {})
+        return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
+    except Exception:  # noqa: BLE001 - a scheduler that does not answer: one at a time
+        return 1
 
 
 def _client(workers: int | None, scheduler: str | None, path: str):
@@ -111,17 +124,24 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     rows: dict[int, dict] = {}
     client = cluster = None
     interrupted = False
+    futs: dict = {}
     try:
         from stlc.sweep.task import run_instance
 
         client, cluster = _client(workers, scheduler, path)
-        futs = {}
-        for i, inst in enumerate(insts):
-            items = fixed + [(n, t) for n, _, t in inst]
-            futs[client.submit(run_instance, source, path, m.name, items,
-                               {n: v for n, v, _ in inst}, i, time_limit=time_limit,
-                               pure=False, retries=1)] = i
-        pending = set(futs)
+        order = Order([{n: v for n, v, _ in inst} for inst in insts], names)
+        pending: set = set()
+
+        def submit(i: int) -> None:
+            items = fixed + [(n, t) for n, _, t in insts[i]]
+            f = client.submit(run_instance, source, path, m.name, items,
+                              {n: v for n, v, _ in insts[i]}, i, time_limit=time_limit,
+                              seeds=order.neighbours(i), pure=False, retries=1)
+            futs[f] = i
+            pending.add(f)
+
+        for i in order.seeds(_slots(client, workers, scheduler)):
+            submit(i)
         sat = 0
         _progress(0, len(insts), 0, t0, quiet)
         while pending:
@@ -137,12 +157,20 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
                            "robustness": float("nan"), "specs": {}, "iterations": 0,
                            "solve_s": 0.0, "total_s": 0.0, "worker": "", "built": False}
                 plan = row.pop("plan_csv", None)
+                channels = row.pop("channels", None)
                 if plan is not None:
                     with open(os.path.join(stage, "plans", f"{i}.csv"), "w") as fh:
                         fh.write(plan)
+                if channels is not None:  # a satisfied plan: a seed for its neighbours
+                    order.add(i, row["values"], channels, str(row["values"]))
                 rows[i] = row
                 sat += row["status"] == "satisfied"
                 _progress(len(rows), len(insts), sat, t0, quiet)
+            while len(pending) < _slots(client, workers, scheduler):
+                i = order.next()
+                if i is None:
+                    break
+                submit(i)
             if pending:
                 interrupt.check()
                 time.sleep(0.05)

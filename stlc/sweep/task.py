@@ -12,6 +12,8 @@ import os
 import time
 import traceback
 
+import numpy as np
+
 from stlc.backends.library import LibrarySeed, PlanLibrary
 
 _LIBRARIES: dict[tuple[str, str], PlanLibrary] = {}
@@ -29,12 +31,14 @@ def _worker_name() -> str:
 
 def run_instance(source: str, path: str, mission: str, items: list[tuple[str, str]],
                  values: dict[str, float], index: int, warm: bool = True,
-                 time_limit: float | None = None) -> dict:
+                 time_limit: float | None = None, seeds: list | None = None) -> dict:
     """Plan and verify one instance; never raises for a bad instance (status ``failed``).
     ``time_limit`` (s, ``stlc sweep --time-limit``) bounds this instance from its start on
     its worker, as ``compile --time-limit`` bounds a compile (no watchdog in a worker: an
     NLP build is not cut); an instance it stops is ``stopped`` (or ``satisfied`` if the
-    exact monitor says so); without it the default limit applies (``stlc.deadline``)."""
+    exact monitor says so); without it the default limit applies (``stlc.deadline``).
+    ``seeds``: solved plans (values, channels, label) the client ships (``stlc.sweep.order``);
+    ``None``: this worker's own library.  A satisfied row carries its plan's ``channels``."""
     from stlc import deadline
     from stlc.backends import nlp_cache
 
@@ -47,7 +51,7 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     builds = nlp_cache.STATS["builds"]
     try:
         with deadline.bounded(time_limit):
-            row.update(_plan(source, path, mission, items, values, warm))
+            row.update(_plan(source, path, mission, items, values, warm, seeds))
     except Exception as e:  # noqa: BLE001 - one instance's failure is a row, not a lost sweep
         from stlc.diagnostics import StlcError
 
@@ -62,16 +66,29 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     return row
 
 
-def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> dict:
+def _parsed(source: str, path: str):
+    """The parsed file, kept between a worker's tasks (the same text every time)."""
+    from stlc.frontend.syntax import parse
+
+    key = (path, hash(source))
+    if _PARSED.get("key") != key:
+        _PARSED.update(key=key, tree=parse(source, path))
+    return _PARSED["tree"]
+
+
+_PARSED: dict = {}
+
+
+def _plan(source: str, path: str, mission: str, items, values, warm: bool,
+          seeds: list | None = None) -> dict:
     from stlc.backends.casadi_backend import CasadiNlp
     from stlc.backends.nlp_cache import structure_key
-    from stlc.frontend.syntax import parse
     from stlc.output.solution import trajectory_csv
     from stlc.pipeline import backend_chain, plan, select_missions
     from stlc.planning.problem import from_mission
     from stlc.semantics import overrides
 
-    program, vals = overrides.checked(parse(source, path), items)
+    program, vals = overrides.checked(_parsed(source, path), items)
     m = select_missions(path, program, mission)[0]
     problem = from_mission(program, m, values=vals)
     chain = backend_chain(problem)
@@ -80,19 +97,25 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool) -> di
     if isinstance(chain[-1], CasadiNlp):
         key = (mission, structure_key(problem))
         lib = _LIBRARIES.setdefault(key, PlanLibrary())
+        if seeds is not None:  # the client's nearest solved plans, whoever solved them
+            lib = PlanLibrary()
+            for v, ch, label in seeds:
+                lib.add(v, ch, label)
         # of the 4 nearest solved plans, the most robust at this instance's own values
         near = lib.nearest(vals, _scorer(program, m, problem.grid.dt)) if warm else None
         if near is not None:
             chain = [LibrarySeed(*near), chain[-1]]
     _, sol = plan(program, m, values=vals, chain=chain)
-    if lib is not None and sol.status == "satisfied":
+    if lib is not None and sol.status == "satisfied" and seeds is None:
         lib.add(vals, sol.channels, str(values))
     st = sol.solver
     return {"status": str(sol.status), "robustness": float(sol.robustness_exact),
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
             "iterations": int(st.get("iterations", 0) or 0),
             "solve_s": float(sol.timing.get("solve_s", 0.0)),
-            "warm": chain[0].name, "plan_csv": trajectory_csv(sol)}
+            "warm": chain[0].name, "plan_csv": trajectory_csv(sol),
+            "channels": ({k: np.asarray(v, float) for k, v in sol.channels.items()}
+                         if sol.status == "satisfied" else None)}
 
 
 def _scorer(program, mission, dt: float):

@@ -1,0 +1,106 @@
+"""The order in which a sweep's instances are solved, and the solved plans each one starts
+from (``stlc sweep``, the client side).
+
+A warm start is only as good as its neighbour: a plan solved for values close to the
+instance's own.  So the client does not submit every instance at once in grid order (then
+each worker would warm-start only from what *it* happened to solve, often two grid steps
+away); it keeps one task per worker in flight and
+
+* starts with one **seed instance per worker**, spread over the box (k-means centres of the
+  instances, snapped to instances), solved cold (the mission's own seed chain), in parallel;
+* then always submits the unsolved instance **nearest to a solved one** (distances in the
+  varied values, each axis scaled by its range, as ``PlanLibrary``), so every warm start
+  has a solved neighbour one grid step away whichever worker solved it;
+* ships with each task the solved plans of its ``K_SEEDS`` nearest solved instances (the
+  client holds every plan: they come back with the rows); the worker starts from the one
+  with the best exact robustness at the instance's own values (``stlc.sweep.task``).
+
+Nothing here changes what an instance's plan is judged on: only IPOPT's starting point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+K_SEEDS = 4  #: solved neighbours shipped with a task (the worker scores them)
+
+
+def scaled(points: list[dict[str, float]], names: list[str]) -> np.ndarray:
+    """Instances as rows, each axis scaled by its range (a constant axis by 1)."""
+    a = np.array([[p[n] for n in names] for p in points], dtype=float).reshape(len(points),
+                                                                                 len(names))
+    span = a.max(axis=0) - a.min(axis=0) if len(a) else np.ones(len(names))
+    span[~(span > 0)] = 1.0
+    return (a - (a.min(axis=0) if len(a) else 0.0)) / span
+
+
+def spread(x: np.ndarray, k: int, rounds: int = 30) -> list[int]:
+    """``k`` distinct instances spread over the box: Lloyd's k-means from a farthest-point
+    start (the instance nearest the centroid first), each centre snapped to the nearest
+    instance not taken yet.  Deterministic."""
+    n = len(x)
+    k = max(1, min(k, n))
+    first = int(np.argmin(np.linalg.norm(x - x.mean(axis=0), axis=1)))
+    chosen = [first]
+    while len(chosen) < k:
+        d = np.min(np.linalg.norm(x[:, None, :] - x[chosen][None, :, :], axis=2), axis=1)
+        chosen.append(int(np.argmax(d)))
+    if k == 1:
+        return chosen
+    c = x[chosen].copy()
+    for _ in range(rounds):
+        lab = np.argmin(np.linalg.norm(x[:, None, :] - c[None, :, :], axis=2), axis=1)
+        new = np.array([x[lab == j].mean(axis=0) if np.any(lab == j) else c[j]
+                        for j in range(k)])
+        if np.allclose(new, c):
+            break
+        c = new
+    out: list[int] = []
+    for j in range(k):
+        d = np.linalg.norm(x - c[j], axis=1)
+        d[out] = np.inf
+        out.append(int(np.argmin(d)))
+    return out
+
+
+class Order:
+    """Which instance to submit next and which solved plans go with it."""
+
+    def __init__(self, points: list[dict[str, float]], names: list[str]) -> None:
+        self.x = scaled(points, names)
+        self.n = len(points)
+        self.waiting = list(range(self.n))  # not submitted yet
+        self.solved: dict[int, tuple] = {}  # instance → (values, channels, label)
+
+    def seeds(self, k: int) -> list[int]:
+        """The first wave: ``k`` spread-out instances (cold starts)."""
+        first = spread(self.x, k)
+        for i in first:
+            self.waiting.remove(i)
+        return first
+
+    def next(self) -> int | None:
+        """The waiting instance nearest to a solved one (ties: the lower index); without a
+        solved plan yet, the lowest waiting index."""
+        if not self.waiting:
+            return None
+        if self.solved:
+            s = self.x[list(self.solved)]
+            w = self.x[self.waiting]
+            d = np.min(np.linalg.norm(w[:, None, :] - s[None, :, :], axis=2), axis=1)
+            i = self.waiting[int(np.argmin(d))]
+        else:
+            i = self.waiting[0]
+        self.waiting.remove(i)
+        return i
+
+    def add(self, i: int, values: dict[str, float], channels: dict, label: str) -> None:
+        self.solved[i] = (values, channels, label)
+
+    def neighbours(self, i: int, k: int = K_SEEDS) -> list[tuple]:
+        """The solved plans of the ``k`` solved instances nearest to ``i``."""
+        if not self.solved:
+            return []
+        ids = list(self.solved)
+        d = np.linalg.norm(self.x[ids] - self.x[i], axis=1)
+        return [self.solved[ids[j]] for j in np.argsort(d, kind="stable")[:k]]
