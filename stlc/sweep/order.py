@@ -23,6 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 K_SEEDS = 4  #: solved neighbours shipped with a task (the worker scores them)
+K_FIT = 6  #: solved neighbours the predicted plan is fitted to
+MAX_WEIGHT = 3.0  #: no prediction that extrapolates harder (an affine weight beyond ±3)
+PREDICTED = "predicted"  #: label prefix of a predicted seed
 
 
 def scaled(points: list[dict[str, float]], names: list[str]) -> np.ndarray:
@@ -103,4 +106,41 @@ class Order:
             return []
         ids = list(self.solved)
         d = np.linalg.norm(self.x[ids] - self.x[i], axis=1)
-        return [self.solved[ids[j]] for j in np.argsort(d, kind="stable")[:k]]
+        out = [self.solved[ids[j]] for j in np.argsort(d, kind="stable")[:k]]
+        pred = self.predicted(i)
+        return out + ([pred] if pred is not None else [])
+
+    def predicted(self, i: int, k: int = K_FIT) -> tuple | None:
+        """A first-order predictor (continuation): the plans of the ``k`` solved instances
+        nearest to ``i`` fitted, channel by channel, by an affine function of the scaled
+        values (least squares, weights 1/distance), evaluated at ``i``.  None when the fit
+        does not determine the value at ``i`` (fewer points than its affine hull needs) or
+        would extrapolate with a weight beyond ``MAX_WEIGHT``.  It is only a candidate
+        start: the worker keeps it if its exact robustness at the instance's own values
+        beats the solved neighbours' (``stlc.sweep.task``); it is not dynamically exact,
+        IPOPT makes it so."""
+        ids = [j for j in self.solved if j != i]
+        if len(ids) < 2:
+            return None
+        d = np.linalg.norm(self.x[ids] - self.x[i], axis=1)
+        pick = np.argsort(d, kind="stable")[:k]
+        ids = [ids[j] for j in pick]
+        d = d[pick]
+        A = np.hstack([np.ones((len(ids), 1)), self.x[ids] - self.x[i]])
+        sw = np.sqrt(1.0 / np.maximum(d, 1e-9))
+        Aw = A * sw[:, None]
+        pinv = np.linalg.pinv(Aw)
+        e = np.zeros(A.shape[1])
+        e[0] = 1.0
+        if not np.allclose(e @ pinv @ Aw, e, atol=1e-8):
+            return None  # the value at i is not determined by these points
+        c = (e @ pinv) * sw  # affine weights: the prediction is Σ c_j · plan_j
+        if np.max(np.abs(c)) > MAX_WEIGHT:
+            return None
+        plans = [self.solved[j][1] for j in ids]
+        names = set(plans[0]).intersection(*plans[1:])
+        ch = {n: sum(cj * np.asarray(p[n], float) for cj, p in zip(c, plans))
+              for n in sorted(names)}
+        values = {n: sum(cj * self.solved[j][0][n] for cj, j in zip(c, ids))
+                  for n in self.solved[ids[0]][0]}
+        return values, ch, f"{PREDICTED} from {len(ids)} solved neighbours"

@@ -28,7 +28,7 @@ import numpy as np
 from stlc import interrupt
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.sweep import axes as axes_mod
-from stlc.sweep.order import Order
+from stlc.sweep.order import PREDICTED, Order
 
 
 def _progress(done: int, total: int, sat: int, t0: float, quiet: bool) -> None:
@@ -254,6 +254,8 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         "wall_s": wall, "per_instance_s": wall / max(len(rows), 1),
         "nlp_builds": sum(1 for r in rows if r.get("built")),
         "warm_started": sum(1 for r in rows if r.get("warm") == "plan library"),
+        "warm_from_prediction": sum(1 for r in rows
+                                    if str(r.get("seed", "")).startswith(PREDICTED)),
         "solve_s": quantiles([r["solve_s"] for r in ok]),
         "total_s": quantiles([r["total_s"] for r in ok]),
         "t_c_estimate_s": quantiles([r["solve_s"] for r in ok]).get("p95"),

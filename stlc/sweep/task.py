@@ -94,6 +94,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     chain = backend_chain(problem)
     key = (mission, "")
     lib = None
+    seed_label = ""
     if isinstance(chain[-1], CasadiNlp):
         key = (mission, structure_key(problem))
         lib = _LIBRARIES.setdefault(key, PlanLibrary())
@@ -105,6 +106,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
         near = lib.nearest(vals, _scorer(program, m, problem.grid.dt)) if warm else None
         if near is not None:
             chain = [LibrarySeed(*near), chain[-1]]
+            seed_label = near[1]
     _, sol = plan(program, m, values=vals, chain=chain)
     if lib is not None and sol.status == "satisfied" and seeds is None:
         lib.add(vals, sol.channels, str(values))
@@ -113,7 +115,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
             "iterations": int(st.get("iterations", 0) or 0),
             "solve_s": float(sol.timing.get("solve_s", 0.0)),
-            "warm": chain[0].name, "plan_csv": trajectory_csv(sol),
+            "warm": chain[0].name, "seed": seed_label, "plan_csv": trajectory_csv(sol),
             "channels": ({k: np.asarray(v, float) for k, v in sol.channels.items()}
                          if sol.status == "satisfied" else None)}
 
