@@ -26,6 +26,7 @@ K_SEEDS = 4  #: solved neighbours shipped with a task (the worker scores them)
 K_FIT = 6  #: solved neighbours the predicted plan is fitted to
 MAX_WEIGHT = 3.0  #: no prediction that extrapolates harder (an affine weight beyond ±3)
 PREDICTED = "predicted"  #: label prefix of a predicted seed
+KEEP_PLANS = 2000  #: solved plans the client keeps as seeds (the most recent)
 
 
 def scaled(points: list[dict[str, float]], names: list[str]) -> np.ndarray:
@@ -67,38 +68,39 @@ def spread(x: np.ndarray, k: int, rounds: int = 30) -> list[int]:
 
 
 class Order:
-    """Which instance to submit next and which solved plans go with it."""
+    """Which instance to submit next and which solved plans go with it.  Every step is
+    linear in the number of instances (a sweep may have 100,000): each waiting instance
+    keeps its distance to the nearest solved one, updated as plans arrive; the client keeps
+    the plans of the last ``KEEP_PLANS`` solved instances (a handover plan is ~50 kB)."""
 
     def __init__(self, points: list[dict[str, float]], names: list[str]) -> None:
         self.x = scaled(points, names)
         self.n = len(points)
-        self.waiting = list(range(self.n))  # not submitted yet
+        self.waiting = np.ones(self.n, dtype=bool)  # not submitted yet
+        self.dmin = np.full(self.n, np.inf)  # distance to the nearest solved instance
         self.solved: dict[int, tuple] = {}  # instance → (values, channels, label)
 
     def seeds(self, k: int) -> list[int]:
         """The first wave: ``k`` spread-out instances (cold starts)."""
         first = spread(self.x, k)
-        for i in first:
-            self.waiting.remove(i)
+        self.waiting[first] = False
         return first
 
     def next(self) -> int | None:
         """The waiting instance nearest to a solved one (ties: the lower index); without a
         solved plan yet, the lowest waiting index."""
-        if not self.waiting:
+        if not self.waiting.any():
             return None
-        if self.solved:
-            s = self.x[list(self.solved)]
-            w = self.x[self.waiting]
-            d = np.min(np.linalg.norm(w[:, None, :] - s[None, :, :], axis=2), axis=1)
-            i = self.waiting[int(np.argmin(d))]
-        else:
-            i = self.waiting[0]
-        self.waiting.remove(i)
+        d = np.where(self.waiting, self.dmin, np.inf)
+        i = int(np.argmin(d)) if np.isfinite(d).any() else int(np.argmax(self.waiting))
+        self.waiting[i] = False
         return i
 
     def add(self, i: int, values: dict[str, float], channels: dict, label: str) -> None:
         self.solved[i] = (values, channels, label)
+        self.dmin = np.minimum(self.dmin, np.linalg.norm(self.x - self.x[i], axis=1))
+        while len(self.solved) > KEEP_PLANS:
+            del self.solved[next(iter(self.solved))]
 
     def neighbours(self, i: int, k: int = K_SEEDS) -> list[tuple]:
         """The solved plans of the ``k`` solved instances nearest to ``i``."""
