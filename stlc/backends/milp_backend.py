@@ -40,6 +40,9 @@ KAPPA_MARGIN = 1e-6  #: the feasibility phase asks ρ̂ ≥ κ + this
 #: binaries) found no incumbent in 120 s, while the `nlp` fallback planned it in 48 s
 LARGE_BINARIES = 3000
 LARGE_LIMIT_S = 20.0
+#: LP rounds of the start's local search (the 60 s patrol at 0.2 s: ρ̂ 0.121 after one,
+#: 0.129 after six, 0.15 s each)
+ROUNDS = 3
 
 HIGHS_STATUS_MAP = {
     "Optimal": SolverStatus.OPTIMAL,
@@ -254,8 +257,9 @@ class ExactMilp(Backend):
         term and choice on that trajectory — each choice the best branch, no search; then,
         with those choices fixed and the inputs free, the LP maximising ρ̂: the most robust
         plan of that homotopy class on this grid (the coarse path may clip a region
-        between its samples, which the LP repairs where the class allows).  Only a start:
-        the optimisation that follows frees the choices too."""
+        between its samples, which the LP repairs where the class allows), repeated from the
+        best choices on the LP's path for up to ``ROUNDS`` LPs while ρ̂ grows.  Only a
+        start: the optimisation that follows frees the choices too."""
         seed = problem.seed
         if seed is None or not seed.channels or low.top < 0:
             return None
@@ -276,13 +280,22 @@ class ExactMilp(Backend):
                          hi[low.top])
         self.phases.append(("coarse start (its path)", "Feasible" if np.all(
             (x >= lo - 1e-7) & (x <= hi + 1e-7)) else "Infeasible", time.perf_counter() - t0))
-        h = Highs(low.milp, {low.top: -1.0}, time_limit=max(min(limit / 4, limit - 1), 0.1))
-        for j, integer in enumerate(low.milp.integer):
-            if integer:
-                h.set_col_bounds(j, float(round(x[j])), float(round(x[j])))
-        pol = h.solve()
-        self.phases.append(("coarse start (choices fixed)", pol.status, pol.wall_s))
-        return pol if pol.x is not None else None
+        best = None
+        for _ in range(ROUNDS):  # choices fixed → LP → the best choices on its path → …
+            h = Highs(low.milp, {low.top: -1.0},
+                      time_limit=max(min(limit / 4, limit - 1) - (time.perf_counter() - t0),
+                                     0.1))
+            for j in np.flatnonzero(low.milp.integer):
+                h.set_col_bounds(int(j), float(round(x[j])), float(round(x[j])))
+            pol = h.solve()
+            self.phases.append(("coarse start (choices fixed)", pol.status, pol.wall_s))
+            if pol.x is None or (best is not None and
+                                 pol.x[low.top] <= best.x[low.top] + 1e-6):
+                break
+            best = pol
+            x = pol.x.copy()
+            low.encoder.complete(x)
+        return best
 
     def _two_phase(self, low: Lowered, problem: PlanningProblem, limit: float, start=None):
         if low.top < 0:
