@@ -149,11 +149,12 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
 
 
 def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
-         exclude: tuple = ()):
+         exclude: tuple = (), improve_s: float = IMPROVE_S):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
     of the MILP; the paths are None when the MILP found none (or cannot be built).
     ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
-    0/1 values)} — a no-good cut: at least one of those binaries differs.  The record's
+    0/1 values)} — a no-good cut: at least one of those binaries differs.  ``improve_s``:
+    the time for the shortening phase (0: none).  The record's
     ``choices`` are this seed's, in the same form, for every conjunct of the seed formula."""
     from stlc.backends.milp_backend import build, invariant_box
 
@@ -199,7 +200,7 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
             milp.row({t: 1.0, int(col): 1.0}, 0.0, np.inf)
             cost[t] = ACC_WEIGHT * h
     limit = float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
-    res, phases = _solve(milp, low.top, cost, problem.threshold, limit)
+    res, phases = _solve(milp, low.top, cost, problem.threshold, limit, improve_s)
     rec.update({"status": res.status, "step_s": h, "samples": coarse.n,
                 "binaries": milp.n_binaries, "wall_s": sum(p[2] for p in phases),
                 "build_s": low.build_s, "nodes": res.nodes,
@@ -219,10 +220,11 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     return paths, rec
 
 
-def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
+def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
+           improve_s: float = IMPROVE_S):
     """Three phases: a path with ρ̂ ≥ κ (a feasibility MILP: HiGHS finds one far sooner than
     it closes any optimisation); then, from it as a MIP start, the MILP minimising the
-    acceleration penalty under ρ̂ ≥ κ for at most ``IMPROVE_S`` (a feasibility solution's
+    acceleration penalty under ρ̂ ≥ κ for at most ``improve_s`` (a feasibility solution's
     choices at samples where nothing binds are arbitrary: a path that wanders); then, with
     the incumbent's binaries fixed — its discrete choices —, the LP maximising ρ̂ − penalty
     (the most robust, economical path of that homotopy class).  When HiGHS proves that no
@@ -242,9 +244,9 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float):
         phases.append(("feasibility", best.status, best.wall_s))
         if best.status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
             return best, phases
-        if best.x is not None and left() > 2 * POLISH_S:
+        if best.x is not None and improve_s > 0 and left() > 2 * POLISH_S:
             penalty = {j: c for j, c in cost.items() if j != top}
-            h = Highs(milp, penalty, time_limit=min(IMPROVE_S, left() - POLISH_S),
+            h = Highs(milp, penalty, time_limit=min(improve_s, left() - POLISH_S),
                       rel_gap=IMPROVE_GAP, abs_gap=1e-6)
             h.set_col_bounds(top, min(max(milp.lo[top], kappa), milp.hi[top]), milp.hi[top])
             h.start(best.x)
