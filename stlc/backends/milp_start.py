@@ -60,7 +60,7 @@ class CoarseStart(Backend):
         t0 = time.perf_counter()
         if problem.grid.n <= MAX_SAMPLES or seed_factor(problem.grid, problem.requirement) <= 1:
             return None, {"status": "not needed (a small grid: the exact MILP starts itself)"}
-        paths, rec = plan(problem, time_limit=self.time_limit, improve_s=0.0)
+        paths, rec = plan(problem, time_limit=self.time_limit, rounds=0)
         rec.pop("choices", None)
         rec["total_s"] = time.perf_counter() - t0
         return paths, rec
