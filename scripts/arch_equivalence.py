@@ -27,6 +27,12 @@ CASES = [
     ("compile", "specs/bird_diverter_4x11.stl", "bird_diverter_4x11"),
     ("simulate", "specs/handover.stl", "handover_left_tb"),
     ("simulate", "specs/bird_diverter_2x7.stl", "bird_diverter_2x7"),
+    # a small takeover (the backup joins the executed team), and the same with a --set
+    # value that the judgement of the executed team must read (a placed region)
+    ("simulate", "tests/missions/takeover_cross.stl", "cross",
+     ("--fail", "uav1@2", "--backup", "uav3")),
+    ("simulate", "tests/missions/takeover_cross.stl", "cross",
+     ("--fail", "uav1@2", "--backup", "uav3", "--set", "tb.center.y=3.5 m")),
 ]
 
 EVENT_KEYS = ("time", "vehicle", "kind", "deviation", "triggered", "status", "accepted",
@@ -40,10 +46,11 @@ def _num(x):
 FROZEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "frozen_clock.py")
 
 
-def run_case(cmd: str, path: str, mission: str, frozen: bool = False) -> dict:
+def run_case(cmd: str, path: str, mission: str, frozen: bool = False,
+             extra: tuple[str, ...] = ()) -> dict:
     with tempfile.TemporaryDirectory() as out:
         head = [sys.executable, FROZEN] if frozen else [sys.executable, "-m", "stlc"]
-        argv = [*head, cmd, path, "--mission", mission, "-o", out, "-q"]
+        argv = [*head, cmd, path, "--mission", mission, "-o", out, "-q", *extra]
         if cmd == "compile":
             argv.append("--no-risk")
         p = subprocess.run(argv, capture_output=True, text=True)
@@ -70,12 +77,13 @@ def record(frozen: bool = False, only: str | None = None) -> dict:
     with the segment's clock frozen (``frozen_clock.py``: events decided by the
     mathematics, not the load)."""
     res = {}
-    for cmd, path, mission in CASES:
+    for cmd, path, mission, *rest in CASES:
+        extra = tuple(rest[0]) if rest else ()
         if (frozen and cmd != "simulate") or (only and cmd != only):
             continue
-        key = f"{cmd} {path} {mission}"
+        key = " ".join((cmd, path, mission, *extra))
         print(key, file=sys.stderr, flush=True)
-        res[key] = run_case(cmd, path, mission, frozen)
+        res[key] = run_case(cmd, path, mission, frozen, extra)
     return res
 
 

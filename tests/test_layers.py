@@ -127,3 +127,82 @@ def test_replanning_uses_the_backends_only_through_their_interface():
     reach = sorted({t for m, ts in g.items() if m.startswith("stlc.replan")
                     for t in ts if t.startswith("stlc.backends.") and t != "stlc.backends.base"})
     assert not reach, f"replan reaches past the Backend interface: {reach}"
+
+
+#: the takeover path below the pipeline: replanning, the backup planner, the contract of its
+#: plan, and the re-instantiation of a mission for the executed team
+AFTER_CHECK = ("stlc.replan", "stlc.backends.backup", "stlc.backends.segment",
+               "stlc.backends.move_replan", "stlc.planning.takeover", "stlc.semantics.teamform",
+               "stlc.semantics.instance")
+#: what turns source text into a checked program (and re-checks it: ``overrides.checked``)
+BEFORE_CHECK = ("stlc.frontend", "stlc.semantics.check", "stlc.semantics.overrides",
+                "stlc.semantics.lint")
+ENTRY_POINTS = {"parse", "parse_file", "check", "checked", "source_text", "mission_for_team"}
+
+
+def _under(m: str, prefixes: tuple[str, ...]) -> bool:
+    return any(m == p or m.startswith(p + ".") for p in prefixes)
+
+
+def reaches_the_checker(g: dict[str, set[str]]) -> list[str]:
+    """Import chains (transitive, any level) from the takeover path to the parser/checker."""
+    starts = [m for m in g if _under(m, AFTER_CHECK)]
+    parent: dict[str, str] = {}
+    stack = list(starts)
+    while stack:
+        m = stack.pop()
+        for t in sorted(g.get(m, ())):
+            if t not in parent and t not in starts:
+                parent[t] = m
+                stack.append(t)
+    out = []
+    for t in sorted(parent):
+        if _under(t, BEFORE_CHECK):
+            chain = [t]
+            while chain[-1] in parent:
+                chain.append(parent[chain[-1]])
+            out.append(" <- ".join(chain))
+    return out
+
+
+def calls_an_entry_point(path) -> list[str]:
+    """Calls of a parse/check entry point, and reads of ``.source`` (the file's text)."""
+    import ast
+
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out = []
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Call):
+            f = n.func
+            name = f.id if isinstance(f, ast.Name) else f.attr if isinstance(
+                f, ast.Attribute) else ""
+            if name in ENTRY_POINTS:
+                out.append(f"{path.name}:{n.lineno}: calls {name}()")
+        elif isinstance(n, ast.Attribute) and n.attr == "source":
+            out.append(f"{path.name}:{n.lineno}: reads .source")
+    return out
+
+
+def test_the_executed_team_is_judged_without_the_checker():
+    """Data flows one way: after check time nothing on the takeover path imports the
+    parser or the checker (at any depth) or calls their entry points; the executed team is
+    judged from the checked mission (``stlc.semantics.teamform.for_team``)."""
+    from test_import_graph import module_names
+
+    assert not reaches_the_checker(graph()), "\n".join(reaches_the_checker(graph()))
+    mods = module_names()
+    paths = [p for m, p in mods.items() if _under(m, AFTER_CHECK)]
+    assert len(paths) >= 8
+    bad = [c for p in paths for c in calls_an_entry_point(p)]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_one_way_detectors(tmp_path):
+    g = {"stlc.replan.a": {"stlc.planning.x"}, "stlc.planning.x": {"stlc.semantics.check.y"},
+         "stlc.semantics.check.y": set()}
+    assert reaches_the_checker(g) == [
+        "stlc.semantics.check.y <- stlc.planning.x <- stlc.replan.a"]
+    f = tmp_path / "m.py"
+    f.write_text("def j(p):\n    return check(parse(p.program.source))\n")
+    assert calls_an_entry_point(f) == ["m.py:2: calls check()", "m.py:2: calls parse()",
+                                       "m.py:2: reads .source"]

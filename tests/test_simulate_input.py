@@ -10,7 +10,8 @@ import pytest
 from stlc import cli
 from stlc.diagnostics import StlcError
 from stlc.frontend.syntax import parse
-from stlc.semantics.check import check, mission_for_team
+from stlc.semantics.check import check
+from stlc.semantics.teamform import for_team
 
 HEAD = textwrap.dedent("""\
     vehicle uav1 : point_mass { vel_max = (3,3,3) m/s; acc_max = (3,3,3) m/s^2; capacity = 2
@@ -80,9 +81,9 @@ def test_bad_events_are_diagnosed(event, code):
     assert code in codes(mission(event))
 
 
-def test_mission_for_team_quantifies_over_the_added_vehicle():
+def test_for_team_quantifies_over_the_added_vehicle():
     program = check(parse(mission("fail uav1 { time = 5 s; backup = uav3 }"), "m.stl"))
-    m = mission_for_team(program, "m", ("uav1", "uav3"))
+    m = for_team(program.missions["m"], ("uav1", "uav3"))
     from stlc.semantics import ir
 
     assert m.vehicles == ("uav1", "uav3")

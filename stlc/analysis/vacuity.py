@@ -115,4 +115,5 @@ def plan_warnings(problem, sol) -> list[Diagnostic]:
     """STLW02 on a plan: the mission's requirement and named specs on its channels."""
     m = problem.mission
     formulas = {m.name: m.requirement, **m.specs}
-    return vacuous(formulas, problem.grid.dt, sol.channels, problem.params, len(sol.times))
+    return vacuous(formulas, problem.grid.dt, sol.channels, problem.program.params,
+                   len(sol.times))

@@ -15,10 +15,11 @@ def registry() -> dict[str, type]:
     from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
     from stlc.backends.milp_backend import ExactMilp
     from stlc.backends.milp_seed import MilpPathSeed
+    from stlc.backends.milp_start import CoarseStart
     from stlc.backends.segment import SegmentBackend
     from stlc.backends.team_backend import MilpSeed, TeamRefine
 
-    return {"milp": ExactMilp, "kinematic": KinematicGuess,
+    return {"milp": ExactMilp, "milp-start": CoarseStart, "kinematic": KinematicGuess,
             "seed-milp": MilpPathSeed, "casadi": CasadiNlp,
             "team-milp": MilpSeed, "team-refine": TeamRefine,
             # replanning backends, run by the simulation on an event's problem (no chain)

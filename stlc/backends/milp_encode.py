@@ -160,6 +160,9 @@ class Encoder:
         self.channel, self.fixed = channel, fixed
         self.memo: dict = {}
         self.affine_memo: dict = {}
+        #: every term column in creation order (children first), for ``complete``:
+        #: ("min", r, lo, hi, terms) or ("max", r, lo, hi, terms, λ columns, bit columns)
+        self.nodes: list[tuple] = []
         self.binaries = 0
         #: disjunctions of at most this many operands get one binary per operand, wider
         #: ones the logarithmic encoding (``STLC_MILP_ONE_HOT`` overrides, for measuring)
@@ -169,6 +172,29 @@ class Encoder:
 
     def _new(self, lo: float, hi: float) -> int:
         return self.m.var(lo if math.isfinite(lo) else -INF, hi if math.isfinite(hi) else INF)
+
+    @staticmethod
+    def value(t: Term, x) -> float:
+        return t.const + sum(c * x[j] for j, c in t.coefs)
+
+    def complete(self, x) -> None:
+        """Fill every term, choice and bit column of ``x`` (whose state and input columns
+        are set) with its value on that trajectory: each term the exact robustness of its
+        sub-formula (clipped to the term's interval), each choice the best branch — a
+        feasible point of the encoding with no search."""
+        for node in self.nodes:
+            kind, r, lo, hi, terms = node[:5]
+            vals = [self.value(t, x) for t in terms]
+            if kind == "min":
+                x[r] = min(max(min(vals), lo), hi)
+                continue
+            lam, bits = node[5], node[6]
+            best = max(range(len(vals)), key=vals.__getitem__)
+            x[r] = min(max(vals[best], lo), hi)
+            for i, j in enumerate(lam):
+                x[j] = 1.0 if i == best else 0.0
+            for bit, b in enumerate(bits):
+                x[b] = float(gray(best) >> bit & 1)
 
     def _le(self, r: int, t: Term, slack_col: int | None = None, big_m: float = 0.0) -> None:
         """r ≤ t  (+ M (1 − λ) when a choice column λ is given)."""
@@ -196,6 +222,7 @@ class Encoder:
         r = self._new(lo, hi)
         for t in lin:
             self._le(r, t)
+        self.nodes.append(("min", r, lo, hi, lin))
         return var_term(r, lo, hi)
 
     def disj(self, terms: list[Term]) -> Term:
@@ -224,8 +251,10 @@ class Encoder:
         nbits = 0 if direct else max(1, (mcount - 1).bit_length())
         self.binaries += mcount if direct else 0
         codes = [gray(i) for i in range(mcount)]
+        bits = []
         for bit in range(nbits):
             b = self.m.var(0.0, 1.0, integer=True)
+            bits.append(b)
             self.binaries += 1
             ones = [lam[i] for i in range(mcount) if codes[i] >> bit & 1]
             zeros = [lam[i] for i in range(mcount) if not codes[i] >> bit & 1]
@@ -236,6 +265,7 @@ class Encoder:
         for t, li in zip(lin, lam):
             big_m = max(hi - t.lo, 0.0)
             self._le(r, t, li, big_m)
+        self.nodes.append(("max", r, lo, hi, lin, lam, bits))
         return var_term(r, lo, hi)
 
     # ----------------------------------------------------------------- formulas

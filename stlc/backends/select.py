@@ -6,8 +6,9 @@ vehicle models — "linear dynamics only" —, formula nodes, functions, planned
 ``needs_signals``: a team chain plans only missions that read a payload) plans it:
 
 * ``team``: task-assignment MILP → waypoint refinement (missions with payloads, paper B);
-* ``milp``: the exact STL→MILP backend (linear vehicles, predicates linear in the state;
-  integer variables decide every disjunction globally);
+* ``milp``: a coarse-grid MILP start (``milp_start``) → the exact STL→MILP backend (linear
+  vehicles, predicates linear in the state; integer variables decide every disjunction
+  globally);
 * ``nlp``: MILP seed (the discrete choices of a double-integrator abstraction, chosen
   globally; ``milp_seed``) → the full-dynamics smooth-robustness NLP (anything else);
   ``kinematic`` forces the local kinematic guess as the seed instead.
@@ -26,7 +27,7 @@ from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 
 CHAINS: dict[str, tuple[str, ...]] = {
     "team": ("team-milp", "team-refine"),
-    "milp": ("milp",),
+    "milp": ("milp-start", "milp"),
     "nlp": ("seed-milp", "casadi"),
     "kinematic": ("kinematic", "casadi"),
 }

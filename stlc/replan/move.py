@@ -35,7 +35,7 @@ class Move:
 
 
 def moved_program(program, move: Move):
-    from stlc.semantics.overrides import Setting, apply_values
+    from stlc.semantics.instance import Setting, apply_values
 
     sets = [Setting(f"{move.human}.pos.{a}", "", float(move.pos[i]), "human")
             for i, a in enumerate("xyz")]

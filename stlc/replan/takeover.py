@@ -32,11 +32,13 @@ Semantics (the decisions the paper leaves open):
   and the free stations.
 * **Judgement.** The executed trajectory (the other drones' plans, the failed drone then
   parked, the backup) is verified like a plan (``stlc.planning.verify``: derived signals and
-  the payload recomputed from the positions) against the mission checked again with the
-  backup in its team (``stlc.semantics.check.mission_for_team``), so ``forall d in team`` and
-  ``exists d in team`` range over the backup. ``executed_robustness`` holds ``mission`` (the
-  requirement) and every named spec; the event's ``kept`` holds the specs of the mission's
-  ``replan { keep = [...] }``, or every named spec when it names none.
+  the payload recomputed from the positions) against the checked mission re-instantiated
+  with the backup in its team (``stlc.semantics.teamform.for_team``: the quantifiers over
+  the team that the checker kept, no source text and no checker), so ``forall d in team``
+  and ``exists d in team`` range over the backup, with the ``--set`` values of the run.
+  ``executed_robustness`` holds ``mission`` (the requirement) and every named spec; the
+  event's ``kept`` holds the specs of the mission's ``replan { keep = [...] }``, or every
+  named spec when it names none.
 * **Accepted** when the replan converged (MILP optimal, IPOPT optimal/acceptable), took at
   most T_rep (the time the paper reserves for it) and every kept spec is ≥ κ on the
   executed trajectory. ``within_budget`` compares the replan time with the 2 s goal
@@ -57,8 +59,8 @@ import time
 import numpy as np
 
 from stlc.backends.base import SolverStatus, run_chain
-from stlc.replan.result import ReplanEvent, SimulationResult
 from stlc.planning.takeover import BackupPlan, Fixed
+from stlc.replan.result import ReplanEvent, SimulationResult
 from stlc.semantics import model
 from stlc.team import Drone, TeamScenario, centre
 
@@ -79,6 +81,7 @@ class TakeoverError(ValueError):
 def validate(problem, plan, failure: model.Failure, cfg: model.ReplanConfig) -> Drone:
     """Check the failure against the mission; returns the backup as a team ``Drone``."""
     from stlc import vehicles
+    from stlc.semantics.teamform import TeamFormError, for_team
 
     m, prog = problem.mission, problem.program
     f, b = failure.vehicle, failure.backup
@@ -98,6 +101,10 @@ def validate(problem, plan, failure: model.Failure, cfg: model.ReplanConfig) -> 
                             "plans point-mass drones", b)
     if v.capacity is None or v.capacity < 1:
         raise TakeoverError(f"backup `{b}` has no capacity (it can carry no diverter)", b)
+    try:  # the mission over the executed team (judged at the end) must exist
+        for_team(m, (*problem.team, b))
+    except TeamFormError as e:
+        raise TakeoverError(f"backup `{b}` cannot join mission `{m.name}`: {e}", b) from None
     horizon = float(m.horizon)
     if not (0.0 <= failure.time < horizon) or math.isnan(failure.time):
         raise TakeoverError(f"failure time {failure.time:g} s is outside the mission "
@@ -332,13 +339,14 @@ def judge(problem, backup: str | None, raw: dict[str, np.ndarray]
     from stlc.analysis import monitor
     from stlc.planning.problem import from_mission
     from stlc.planning.verify import recompute_derived
-    from stlc.semantics.check import mission_for_team
+    from stlc.semantics.teamform import for_team
 
     m = problem.mission
     p_exec = problem
-    if backup is not None:
-        m_exec = mission_for_team(problem.program, m.name, (*problem.team, backup))
-        p_exec = from_mission(problem.program, m_exec, step=m.step, horizon=m.horizon)
+    if backup is not None:  # the checked mission re-instantiated: no source, no checker
+        m_exec = for_team(m, (*problem.team, backup))
+        p_exec = from_mission(problem.program, m_exec, step=m.step, horizon=m.horizon,
+                              values=problem.values)
     ch, _ = recompute_derived(p_exec, raw)
     dt, params = p_exec.grid.dt, p_exec.params
     rob = {"mission": float(monitor.robustness(p_exec.requirement, dt, ch, params))}

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 from stlc.diagnostics import Span
 from stlc.semantics.ir import Formula
+from stlc.semantics.teamform import TeamForm
 from stlc.vehicles.declared import AXES, Multirotor, PointMass, Rotor, Vehicle
 
 __all__ = ["AXES", "Multirotor", "PointMass", "Rotor", "Vehicle"]  # re-exported: declared in stlc.vehicles
@@ -193,6 +194,9 @@ class Mission:
     #: paper B's payload rule: dwell to install one item / to refill (s), if given
     install_time: float | None = None
     refill_time: float | None = None
+    #: the quantifiers over ``vehicles`` kept, to re-instantiate the requirement and named
+    #: specs for another team (``stlc.semantics.teamform.for_team``); None: there are none
+    team_form: TeamForm | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, slots=True)

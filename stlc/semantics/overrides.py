@@ -29,28 +29,18 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 from stlc.frontend import ast
 from stlc.semantics import model
 from stlc.semantics.check import units
+from stlc.semantics.instance import Setting, apply_values
 
 _NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)?\s*$")
 _POSE = re.compile(r"([A-Za-z_]\w*)\.(pos|att)\.([xyz])$")
 _START = re.compile(r"([A-Za-z_]\w*)\.start\.(pos|att)\.([xyz])$")
 PLACEABLE = ("obstacle", "region", "target", "station", "home")  # world regions
-
-
-@dataclass(frozen=True, slots=True)
-class Setting:
-    """One ``--set``: the name as written, the value text, its SI value, and what it sets
-    (``const`` | ``human`` | ``start`` | ``region``)."""
-
-    name: str
-    text: str
-    value: float
-    kind: str = ""
 
 
 def split(items: list[str] | tuple[str, ...]) -> list[tuple[str, str]]:
@@ -179,60 +169,6 @@ def apply_consts(tree: ast.File, settings: list[Setting]) -> ast.File:
             m = replace(m, value=ast.Quantity(num, unit, m.value.span) if unit else num)
         members.append(m)
     return replace(tree, members=tuple(members))
-
-
-def _moved(d: model.Normal, delta: dict[str, float]) -> model.Normal:
-    if not any(p in delta for p in d.params):
-        return d
-    return replace(d, mean=tuple(mu + delta.get(p, 0.0) for p, mu in zip(d.params, d.mean)))
-
-
-def apply_values(program: model.Program, settings: list[Setting]) -> model.Program:
-    """The checked program with the human poses, vehicle starts and region centres of
-    ``settings`` (a region's centre is a parameter only once checked ``placed``)."""
-    poses = {s.name: s.value for s in settings if s.kind == "human"}
-    starts = {s.name: s.value for s in settings if s.kind == "start"}
-    centres = {s.name: s.value for s in settings if s.kind == "region"}
-    if not poses and not starts and not centres:
-        return program
-    delta = {k: v - program.params[k] for k, v in poses.items()}
-    params = {**program.params, **poses, **centres}
-    regions = []
-    for r in program.scenario.regions:
-        if r.box.placed is not None:  # the box moves by its centre's change, size kept
-            d = [params[f"{r.name}.center.{a}"] - (r.box.lo[k] + r.box.hi[k]) / 2
-                 for k, a in enumerate("xyz")]
-            r = replace(r, box=replace(r.box, lo=tuple(x + e for x, e in zip(r.box.lo, d)),
-                                       hi=tuple(x + e for x, e in zip(r.box.hi, d))))
-        regions.append(r)
-    humans = []
-    for h in program.scenario.humans:
-        pos = tuple(params[f"{h.name}.pos.{a}"] for a in "xyz")
-        att = tuple(params[f"{h.name}.att.{a}"] for a in "xyz")
-        humans.append(replace(h, pos=pos, att=att,
-                              uncertain=tuple(_moved(d, delta) for d in h.uncertain)))
-    vehicles = dict(program.vehicles)
-    for name, v in program.vehicles.items():
-        new = {}
-        for f in ("pos", "att"):
-            key = f"{name}.start.{f}."
-            if any(k.startswith(key) for k in starts):
-                old = getattr(v, f"start_{f}")
-                new[f"start_{f}"] = tuple(starts.get(key + a, old[i])
-                                          for i, a in enumerate("xyz"))
-        if new:
-            vehicles[name] = replace(v, **new)
-    missions = {}
-    for name, m in program.missions.items():
-        if m.risk is not None and delta:
-            cases = tuple(replace(c, distributions=tuple(_moved(d, delta)
-                                                         for d in c.distributions))
-                          for c in m.risk.cases)
-            m = replace(m, risk=replace(m.risk, cases=cases))
-        missions[name] = m
-    return replace(program, params=params, vehicles=vehicles, missions=missions,
-                   scenario=replace(program.scenario, humans=tuple(humans),
-                                    regions=tuple(regions)))
 
 
 def checked(tree: ast.File, items: list[tuple[str, str]] | None = None

@@ -94,14 +94,10 @@ class Context(ABC):
     #: the built-in functions, by name (set by ``stlc.semantics.check.program``)
     functions: ClassVar[dict[str, Builtin]] = {}
 
-    def __init__(self, tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None,
-                 placed: frozenset[str] = frozenset()):
+    def __init__(self, tree: ast.File, placed: frozenset[str] = frozenset()):
         self.tree = tree
         #: world regions whose centre is a parameter (``--set 'pole.center.x=...'``)
         self.placed = placed
-        #: mission name → vehicles added to its team (``mission_for_team``: a backup drone
-        #: joins the executed team of a takeover)
-        self.extra_team = dict(extra_team or {})
         self.d = Collector()
         self.lines = source_lines(tree.source)
         self.file = tree.path
@@ -138,6 +134,11 @@ class Context(ABC):
     @abstractmethod
     def formula(self, node: ast.Node, scope: Scope) -> ir.Formula | None:
         """Elaborate a node that must be a formula (``stlc.semantics.check.formulas``)."""
+
+    @abstractmethod
+    def team_quant(self, n: ast.Quant, scope: Scope, dom, out: ir.Formula, parts: tuple,
+                   total: int) -> ir.Formula:
+        """Record a quantifier over ``team`` (``stlc.semantics.check.teams``)."""
 
     @abstractmethod
     def uncertain(self, m: ast.Uncertain, human: str | None, attach: bool = True

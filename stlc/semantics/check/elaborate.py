@@ -184,6 +184,9 @@ class ExpressionElaborator(Context):
         span = n.span
         match v:
             case VehicleV(veh):  # cached: quantifier bodies read fields thousands of times
+                holes = self.__dict__.get("_hole_reads")
+                if holes and veh.name in holes:  # a team template's placeholder (teams.py)
+                    holes[veh.name].add(part)
                 cache = self.__dict__.setdefault("_vehicle_fields", {})
                 hit = cache.get(veh.name)
                 if hit is None or hit[0] is not veh:

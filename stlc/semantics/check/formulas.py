@@ -151,9 +151,11 @@ class FormulaElaborator(Context):
                             f"the list holds {kind_name(bad[0])}", n.domain.span, DOMAIN_HINT)
         if len(set(n.names)) != len(n.names):
             return self.err("STL102", "the same name is bound twice", n.span)
+        outer = getattr(self, "_quant_outer", 1)
+        before = getattr(self, "_quant_total", 0)
         if len(dom.items) < len(n.names):
             if n.kind == "forall":  # vacuously true: `forall d, e in team` for one drone
-                return Form(ir.TrueF(n.span))
+                return Form(self.team_quant(n, scope, dom, ir.TrueF(n.span), (), before))
             what = "no element" if not dom.items else f"only {len(dom.items)} element(s)"
             return self.err("STL212", f"`exists` ranges over {what} ({len(n.names)} "
                             "distinct one(s) needed): the formula could never hold",
@@ -161,8 +163,7 @@ class FormulaElaborator(Context):
                             "region for `stations`), or remove the quantifier")
         count = math.comb(len(dom.items), len(n.names))
         size = _size(n.body)  # the work of one instance: the body's source nodes
-        outer = getattr(self, "_quant_outer", 1)
-        total = getattr(self, "_quant_total", 0) + count * size  # nodes elaborated so far
+        total = before + count * size  # nodes elaborated so far
         if outer * count * size > MAX_EXPANSION or total > MAX_EXPANSION:
             need = max(outer * count * size, total)
             return self.err("STL606", f"quantifier expansion needs at least {need:,} source "
@@ -173,9 +174,9 @@ class FormulaElaborator(Context):
                             "names, or nest fewer quantifiers")
         self._quant_total = total
         self._quant_outer = outer * count
-        parts = []
+        parts, combos = [], list(itertools.combinations(dom.items, len(n.names)))
         try:
-            for combo in itertools.combinations(dom.items, len(n.names)):
+            for combo in combos:
                 f = self.formula(n.body, scope.child(dict(zip(n.names, combo))))
                 if f is None:
                     return ERROR
@@ -183,9 +184,10 @@ class FormulaElaborator(Context):
         finally:
             self._quant_outer = outer
         self.closed_quant.update({name: n.span for name in n.names})
-        if len(parts) == 1:
-            return Form(parts[0])
-        return Form((ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span))
+        out = parts[0] if len(parts) == 1 else \
+            (ir.And if n.kind == "forall" else ir.Or)(tuple(parts), n.span)
+        # over `team`: kept for another team too (`stlc.semantics.teamform`)
+        return Form(self.team_quant(n, scope, dom, out, tuple(zip(combos, parts)), before))
 
     def _v_compare(self, n: ast.Compare, scope: Scope) -> Value:
         a, b = self.value(n.left, scope), self.value(n.right, scope)
@@ -324,7 +326,11 @@ class FormulaElaborator(Context):
                  if isinstance(e, ir.Sig) and ".pos." in e.name}
         if len(names) != 1 or len(items) != 3 or not all(isinstance(e, ir.Sig) for e in items):
             return 0.0
-        v = self.vehicles.get(names.pop())
+        name = names.pop()
+        holes = self.__dict__.get("_hole_reads")
+        if holes and name in holes:  # a team template's placeholder reads its radius
+            holes[name].add("radius")
+        v = self.vehicles.get(name)
         return float(getattr(v, "radius", 0.0) or 0.0)
 
     def _v_range(self, n: ast.Range, scope: Scope) -> Value:

@@ -74,7 +74,6 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
             horizon = step = None
 
     vehicles = _team(ck, b, f)
-    vehicles += [v for v in ck.extra_team.get(name, ()) if v in ck.vehicles and v not in vehicles]
     scope.names["team"] = GroupV("vehicle", tuple(VehicleV(ck.vehicles[v]) for v in vehicles))
 
     # named specs, requirement
@@ -161,7 +160,8 @@ def check_mission(ck: Context, b: ast.Block, top_specs: dict[str, ir.Formula]
         specs=specs, requirement=requirement, objective=objective,  # type: ignore
         threshold=threshold, smoothing=smoothing, risk=risk, replan=replan,  # type: ignore
         options=options, span=b.span, spec_spans=spans,
-        install_time=dwell["install_time"], refill_time=dwell["refill_time"])
+        install_time=dwell["install_time"], refill_time=dwell["refill_time"],
+        team_form=ck.team_form(vehicles, requirement, specs))
 
 
 def _grid_time(ck: Context, f: dict, key: str, scope) -> float | None:

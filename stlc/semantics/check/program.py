@@ -23,19 +23,19 @@ from stlc.semantics.check.elaborate import ExpressionElaborator
 from stlc.semantics.check.events import check_simulate
 from stlc.semantics.check.formulas import FormulaElaborator
 from stlc.semantics.check.mission import check_mission
+from stlc.semantics.check.teams import TeamTemplates
 from stlc.semantics.check.values import Sym
 
 TOP_KINDS = ("vehicle", "scenario", "mission", "spec", "const", "signal")
 
 
-def check(tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None,
-          placed: frozenset[str] = frozenset()) -> model.Program:
+def check(tree: ast.File, placed: frozenset[str] = frozenset()) -> model.Program:
     """Check a parsed file; raise ``StlcError`` with all diagnostics if anything is wrong.
 
-    ``extra_team`` adds vehicles to a mission's team (mission name → vehicle names), so that
-    its quantifiers (``forall d in team``) range over them too (see ``mission_for_team``).
-    ``placed`` names world regions whose centre becomes a parameter (``--set``)."""
-    ck = Checker(tree, extra_team, placed)
+    ``placed`` names world regions whose centre becomes a parameter (``--set``).  A
+    mission's quantifiers over its team are also kept (``Mission.team_form``), so that it
+    can be judged over another team without checking again (``semantics.teamform``)."""
+    ck = Checker(tree, placed)
     try:
         return ck.run()
     except RecursionError:  # the elaborator guards each value; this is the last resort
@@ -44,7 +44,7 @@ def check(tree: ast.File, extra_team: dict[str, tuple[str, ...]] | None = None,
         raise StlcError(ck.d.diagnostics) from None
 
 
-class Checker(ExpressionElaborator, FormulaElaborator):
+class Checker(ExpressionElaborator, FormulaElaborator, TeamTemplates):
     """One checker pass over a file."""
 
     functions = builtins.FUNCS
@@ -79,10 +79,9 @@ class Checker(ExpressionElaborator, FormulaElaborator):
             if isinstance(m, ast.Block) and m.kind == "mission":
                 mis = check_mission(self, m, specs)
                 if mis is not None:
-                    if mis.name not in self.extra_team:  # (a re-check skips the events)
-                        delay = (mis.replan or model.ReplanConfig()).takeover_delay
-                        mis = replace(mis, simulate=check_simulate(self, m, mis.vehicles,
-                                                                   mis.horizon, delay))
+                    delay = (mis.replan or model.ReplanConfig()).takeover_delay
+                    mis = replace(mis, simulate=check_simulate(self, m, mis.vehicles,
+                                                               mis.horizon, delay))
                     missions[mis.name] = mis
             elif isinstance(m, ast.Block) and m.kind not in ("vehicle", "scenario"):
                 self.bad_kind(m.kind, m.span, TOP_KINDS, "at the top level")

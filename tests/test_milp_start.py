@@ -1,0 +1,126 @@
+"""The coarse-grid start of the exact MILP (``milp_start``): on a fine grid the `milp` chain
+first solves the mission on the coarse seed grid, and the exact backend starts HiGHS from
+that path, repaired on its own grid.  The start only changes where the search begins: the
+result is still judged by the exact monitor, and a small grid gets no start."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from stlc import pipeline, vehicles
+from stlc.analysis import monitor
+from stlc.backends.milp_backend import ExactMilp
+from stlc.backends.milp_start import CoarseStart
+from stlc.planning.problem import from_mission
+
+BENCH = Path(__file__).parent.parent / "specs" / "benchmarks" / "reach_avoid.stl"
+
+
+def _program(tmp_path, step: str):
+    """stlpy's ReachAvoid at a finer step (the formula's bounds are whole seconds)."""
+    src = re.sub(r"step = 1 s", f"step = {step} s", BENCH.read_text())
+    f = tmp_path / "ra.stl"
+    f.write_text(src)
+    program = pipeline.load(str(f)).program
+    return program, next(iter(program.missions.values()))
+
+
+def test_the_start_is_a_point_of_the_fine_milp_whose_robustness_the_monitor_confirms(tmp_path):
+    program, mission = _program(tmp_path, "0.1")  # 151 samples
+    problem = from_mission(program, mission)
+    cs = CoarseStart()
+    raw = cs.solve(None, problem)
+    seed = cs.invert(raw, None, problem)
+    assert raw[1]["step_s"] == 0.5 and seed.channels  # the coarse grid: 0.5 s, 31 samples
+    em = ExactMilp()
+    low, _ = em.lower(problem)
+    em.phases = []
+    start = em._seed_start(low, problem.with_seed(seed), 30.0)
+    assert start is not None
+    names = [p[0] for p in em.phases]
+    assert names[0] == "coarse start (its path)"
+    assert set(names[1:]) == {"coarse start (choices fixed)"} and len(names) <= 4
+    # the point's ρ̂ is the exact robustness of the trajectory it encodes
+    (lv,) = low.vehicles
+    xs, _ = lv.simulate(start.x)
+    ch = {c: xs[:, i] for i, c in enumerate(lv.states)}
+    v = problem.vehicles()[0]
+    ch.update(vehicles.model_of(v).derived_channels(v, vehicles.state_matrix(v, ch)))
+    rho = float(monitor.robustness(problem.requirement, problem.grid.dt, ch, problem.params))
+    assert abs(rho - start.x[low.top]) < 1e-6
+    assert rho >= problem.threshold
+
+
+def test_the_milp_chain_plans_a_fine_grid_from_the_coarse_start(tmp_path):
+    program, mission = _program(tmp_path, "0.1")
+    _, sol = pipeline.plan(program, mission)
+    chain = sol.solver["chain"]
+    assert chain["name"] == "milp" and "fallback_from" not in chain
+    assert [s["backend"] for s in chain["stages"]] == ["coarse MILP start", "exact MILP (HiGHS)"]
+    assert any(p["phase"].startswith("coarse start") for p in sol.solver["phases"])
+    assert sol.status == "satisfied" and sol.robustness_exact >= mission.threshold
+    # ReachAvoid's optimum is 0.5 on the 1 s grid (by hand); a finer grid cannot do better
+    assert sol.robustness_exact <= 0.5 + 1e-6
+    if sol.solver["converged"]:
+        assert np.isclose(sol.robustness_exact, sol.solver["objective"], atol=1e-6)
+
+
+def test_a_small_grid_gets_no_start(tmp_path):
+    program, mission = _program(tmp_path, "1")  # 16 samples
+    problem = from_mission(program, mission)
+    paths, rec = CoarseStart().solve(None, problem)
+    assert paths is None and rec["status"].startswith("not needed")
+    _, sol = pipeline.plan(program, mission)
+    assert not any(p["phase"].startswith("coarse start") for p in sol.solver["phases"])
+    assert np.isclose(sol.robustness_exact, 0.5, atol=1e-6)
+
+
+_RA = {}
+
+
+def _ra_milp():
+    """ReachAvoid at its own 1 s step, built once: (problem, lowered MILP); without the
+    holdable end's rows, so that any trajectory is a point."""
+    if not _RA:
+        program = pipeline.load(str(BENCH)).program
+        problem = replace(from_mission(program, next(iter(program.missions.values()))),
+                          hold_end=False)
+        _RA["v"] = (problem, ExactMilp().lower(problem)[0])
+    return _RA["v"]
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(-0.12, 0.12), min_size=45, max_size=45))
+def test_complete_gives_every_term_its_exact_robustness_and_a_feasible_point(u):
+    """``Encoder.complete`` on any trajectory: the requirement's term equals the exact
+    monitor's robustness, and the point satisfies every row of the MILP."""
+    problem, low = _ra_milp()
+    (lv,) = low.vehicles
+    x = np.zeros(low.milp.n_cols)
+    x[lv.u] = np.asarray(u).reshape(15, 3) * [1.0, 1.0, 0.1]  # z: the box is 2 m tall
+    x[lv.x[0]] = np.asarray(low.milp.lo)[lv.x[0]]
+    xs, _ = lv.simulate(x)
+    x[lv.x] = xs
+    low.encoder.complete(x)
+    ch = {c: xs[:, i] for i, c in enumerate(lv.states)}
+    rho = float(monitor.robustness(problem.requirement, problem.grid.dt, ch, problem.params))
+    term = low.encoder.value(low.terms["requirement"], x)
+    x[low.top] = term
+    box = low.box or {}
+    inside = all(box[c][0] <= xs[k, i] <= box[c][1] for i, c in enumerate(lv.states)
+                 if c in box for k in range(len(xs)))
+    assume(inside)  # the MILP's columns live in the invariant box (ExactMilp.lower)
+    assert abs(term - rho) < 1e-9
+    a = low.milp.matrix()
+    ax = a @ x
+    rlo = np.array([r[1] for r in low.milp.rows])
+    rhi = np.array([r[2] for r in low.milp.rows])
+    assert np.all(ax >= rlo - 1e-7) and np.all(ax <= rhi + 1e-7)
+    lo, hi = np.asarray(low.milp.lo), np.asarray(low.milp.hi)
+    assert np.all(x >= lo - 1e-7) and np.all(x <= hi + 1e-7)
