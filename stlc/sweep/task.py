@@ -1,10 +1,12 @@
-"""One sweep instance, as a Dask worker runs it: source text, mission and ``--set`` items in;
-a CSV row and the plan out.  CasADi objects never travel: the worker process keeps its
-built NLPs (``nlp_cache``, keyed by structure) and the plans it solved (a ``PlanLibrary``
-per structure) in module state between tasks, so the first task of a worker builds and
-later ones bind their values into the same NLP and start from a solved plan: of the 4
-nearest (in the varied values), the one with the best exact robustness at the instance's
-own values — a start's objective is what the energy stage it runs first descends from."""
+"""One sweep instance, as a Dask worker runs it: source text, mission, ``--set`` items and
+the candidate seeds in; a CSV row, the plan and its channels out.  CasADi objects never
+travel: the worker process keeps its built NLPs (``nlp_cache``, keyed by structure) between
+tasks, so the first task of a worker builds and later ones bind their values into the same
+NLP.  The client (``stlc.sweep.order``) ships with each task the solved plans of its
+nearest solved instances and a predicted plan; the instance starts from the one with the
+best exact robustness at its own values — a start's objective is what the energy stage it
+runs first descends from.  Without shipped seeds (``seeds=None``) the worker's own library
+of the plans it solved is used."""
 
 from __future__ import annotations
 
@@ -102,8 +104,9 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
             lib = PlanLibrary()
             for v, ch, label in seeds:
                 lib.add(v, ch, label)
-        # of the 4 nearest solved plans, the most robust at this instance's own values
-        near = lib.nearest(vals, _scorer(program, m, problem.grid.dt)) if warm else None
+        # of the candidates (or the 4 nearest), the most robust at this instance's values
+        near = lib.nearest(vals, _scorer(program, m, problem.grid.dt),
+                           k=len(seeds) if seeds else 4) if warm else None
         if near is not None:
             chain = [LibrarySeed(*near), chain[-1]]
             seed_label = near[1]
