@@ -20,7 +20,9 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
   (L1 acceleration penalty: LPs with the choices fixed, each followed by the best choices
   on its path, ``Encoder.complete`` — a local search of ≈ 30 ms LPs that replaced 1.5 s of
   HiGHS on the MILP with its choices free, and found paths as short), then the LP with that
-  path's binaries fixed maximising ρ̂ minus the penalty, under ``TIME_LIMIT_S`` in all.
+  path's binaries fixed maximising ρ̂ minus the penalty, and from it the MILP with its
+  choices free for at most ``FREE_S`` (a better class, if HiGHS finds one), under
+  ``TIME_LIMIT_S`` in all.
 
 The seed path is exact between seed samples (piecewise-constant acceleration), so it is
 sampled onto the mission grid; the kinematic NLP (``schedule.kinematic_guess(problem,
@@ -61,6 +63,7 @@ TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on 
 ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
 ROUNDS = 20  #: LPs of the shortening's local search, at most (≈ 30 ms each on a handover)
 ROUND_GAIN = 0.01  #: … while each one lowers the penalty by more than this fraction
+FREE_S = 0.5  #: then the MILP with its choices free, from the polished path, at most this long
 POLISH_S = 0.3  #: kept for the last LP (choices fixed)
 TOL = 1e-9
 
@@ -232,7 +235,9 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     the best choices on that path (``complete``: ``Encoder.complete``), again while the
     penalty falls by more than ``ROUND_GAIN``, for at most ``rounds`` LPs; then, with the
     choices fixed, the LP maximising ρ̂ − penalty (the most robust, economical path of that
-    homotopy class).  When HiGHS proves that no path reaches κ, that result is returned at
+    homotopy class); then the MILP with its choices free from that point for at most
+    ``FREE_S`` (the local search never leaves the class of the first feasible path: on
+    `eventually (x ≥ 2 or y ≤ −2.5)` it kept the branch worth 0.25 where 0.75 exists).  When HiGHS proves that no path reaches κ, that result is returned at
     once (the caller asks the sound relaxation for a proof); when none was found in time,
     the whole MILP maximises ρ̂ − penalty in the time left and its incumbent, if any, is
     the seed."""
@@ -273,15 +278,31 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
                 break
             prev = res.objective
     h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
-    if x is not None:  # its choices fixed: an LP
-        fixed(h, x)
+    if x is None:  # no path with ρ̂ ≥ κ found in time: the whole MILP for what it finds
         res = h.solve()
-        phases.append(("polish (choices fixed)", res.status, res.wall_s))
-        if res.x is None:
-            res.x, res.status = best.x, best.status
+        phases.append(("optimisation", res.status, res.wall_s))
         return res, phases
+    fixed(h, x)  # its choices fixed: an LP
     res = h.solve()
-    phases.append(("optimisation", res.status, res.wall_s))
+    phases.append(("polish (choices fixed)", res.status, res.wall_s))
+    if res.x is None:
+        res.x, res.status = best.x, best.status
+        return res, phases
+    if top >= 0 and left() > 2 * POLISH_S:
+        # the choices free, from that point: another class with a better ρ̂ − penalty (a
+        # small MILP closes in far less than FREE_S; a handover's does not, and keeps its)
+        h = Highs(milp, cost, time_limit=min(FREE_S, left() - POLISH_S), rel_gap=1e-3,
+                  abs_gap=1e-4)
+        h.set_col_bounds(top, kappa_lo, milp.hi[top])
+        h.start(res.x)
+        free = h.solve()
+        phases.append(("better class (choices free)", free.status, free.wall_s))
+        if free.x is not None and free.objective < res.objective - 1e-6:
+            h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
+            fixed(h, free.x)
+            pol = h.solve()
+            phases.append(("polish (choices fixed)", pol.status, pol.wall_s))
+            res = pol if pol.x is not None and pol.objective <= free.objective + 1e-9 else free
     return res, phases
 
 
