@@ -211,19 +211,22 @@ def test_sweep_output_directory_is_under_the_manifest(tmp_path):
 
 def test_time_limit_is_each_instances_limit(tmp_path):
     """`sweep --time-limit S` (issue 22): S bounds each instance from its start on its
-    worker, as `compile --time-limit` bounds a compile.  With 1 ms the worker's first
-    instance (its imports and first build inside the limit) is `stopped`; a later one may
-    still be `satisfied` by the MILP's minimal slice (the verdict is the exact monitor's,
-    as for compile); nothing else.  A stopped row's plan is judged like any: its robustness
+    worker, as `compile --time-limit` bounds a compile.  With 1 ms an instance is `stopped`,
+    or `satisfied` by the MILP's minimal slice (the verdict is the exact monitor's, as for
+    compile); nothing else.  A stopped row's plan is judged like any: its robustness
     is the one `stlc monitor` finds on plans/<i>.csv.  Exit 3; the limit is in sweep.json."""
     f = tmp_path / "m.stl"
     f.write_text(SOURCE)
     out = tmp_path / "out"
     r = stlc("sweep", str(f), "--mission", "m", "--vary", "T=2.6 s:3 s:2", "--workers", "1",
              "--time-limit", "0.001", "-o", str(out), "-q")
-    assert r.returncode == 3, r.stderr
     rs = rows(out)
-    assert rs[0]["status"] == "stopped" and rs[1]["status"] in ("stopped", "satisfied")
+    statuses = {row["status"] for row in rs}
+    # every instance ends within its 1 ms (plus the solvers' minimal slices): `stopped`,
+    # or `satisfied` when the exact MILP closes this small mission inside its minimal slice
+    # (with the backends imported before the limit starts, the first instance may do so too)
+    assert statuses <= {"stopped", "satisfied"}, rs
+    assert r.returncode == (3 if "stopped" in statuses else 0), r.stderr
     assert json.loads((out / "sweep.json").read_text())["time_limit_s"] == 0.001
     m = stlc("monitor", str(f), "--set", "T=2.6 s", "--trace", str(out / "plans" / "0.csv"),
              "--json")
