@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
@@ -124,3 +125,34 @@ def test_complete_gives_every_term_its_exact_robustness_and_a_feasible_point(u):
     assert np.all(ax >= rlo - 1e-7) and np.all(ax <= rhi + 1e-7)
     lo, hi = np.asarray(low.milp.lo), np.asarray(low.milp.hi)
     assert np.all(x >= lo - 1e-7) and np.all(x <= hi + 1e-7)
+
+
+def test_the_coarse_start_keeps_clear_of_regions_by_the_step_s_clearance(tmp_path):
+    """The coarse MILP inflates every region the formula keeps the vehicle out of by the
+    distance a path can stray from the nearer sample: v·h/2 + a·h²/8 per axis (by hand:
+    ReachAvoid, |v| ≤ 1, |a| ≤ 0.5, h = 0.5 s: 0.25 + 0.015625), so its path, sampled
+    finely, clears the obstacle by that much less at worst."""
+    from stlc.backends import milp_seed
+
+    program, mission = _program(tmp_path, "0.1")
+    problem = from_mission(program, mission)
+    assert milp_seed.clearance(problem, 0.5) == 0.25 + 0.5 * 0.25 / 8
+    f = milp_seed.seed_formula(problem, 0.3)
+    g = milp_seed.seed_formula(problem)
+    # only the obstacle's faces (negated) move: by exactly 0.3 on any trace
+    ch = {"robot.pos.x": np.linspace(0, 9, 151), "robot.pos.y": np.linspace(1, 9, 151),
+          "robot.pos.z": np.full(151, 1.0)}
+    avoid = problem.specs["avoid"].normal
+    a_f = [c for c in f.args if "obs" in str(c)] if hasattr(f, "args") else []
+    assert a_f, "the avoid conjunct is kept"
+    assert monitor.robustness(a_f[0], 0.1, ch, problem.params) == pytest.approx(
+        monitor.robustness(avoid, 0.1, ch, problem.params) - 0.3)
+    reach = [c for c in g.args if "goal" in str(c)]
+    reach_f = [c for c in f.args if "goal" in str(c)]
+    assert monitor.robustness(reach_f[0], 0.1, ch, problem.params) == pytest.approx(
+        monitor.robustness(reach[0], 0.1, ch, problem.params))
+    paths, rec = CoarseStart().solve(None, problem)
+    assert rec["clearance"] == pytest.approx(0.265625)
+    P = paths["robot"][0]  # on the mission grid: every sample clear of the obstacle
+    inside = (P[0] > 3) & (P[0] < 5) & (P[1] > 4) & (P[1] < 6)
+    assert not inside.any()

@@ -103,14 +103,38 @@ def seed_factor(grid: TimeGrid, formula: ir.Formula, max_step: float = MAX_STEP_
     return best
 
 
-def seed_formula(problem) -> ir.Formula:
+def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
     """The requirement with only its affine predicates on positions and velocities (every
-    other predicate is ``true``)."""
+    other predicate is ``true``); with ``clearance`` > 0 every face of a region the formula
+    keeps the vehicle *out of* (a negated box face: ``not in``, the left side of
+    ``implies``) is pushed out by that much (``e ≥ 0`` becomes ``e − clearance ≥ 0``)."""
     from stlc.backends.milp_conflict import _drop_nonlinear, _kept_channels
 
     keep = _kept_channels(problem)  # positions, velocities and fixed channels
-    return ir.restrict(_drop_nonlinear(problem.requirement, problem.params, {}),
-                       lambda s: s in keep)
+    f = ir.restrict(_drop_nonlinear(problem.requirement, problem.params, {}),
+                    lambda s: s in keep)
+    if clearance <= 0:
+        return f
+
+    def go(g: ir.Formula) -> ir.Formula:
+        o = getattr(g, "origin", None)
+        if isinstance(g, ir.Pred) and o is not None and o.kind == "face" and o.negated:
+            return replace(g, expr=ir.Bin("-", g.expr, ir.Const(clearance)))
+        return ir.map_children(g, go)
+
+    return go(f)
+
+
+def clearance(problem, h: float) -> float:
+    """How far a path between two samples h apart can stray from the nearer one, per axis
+    (speed ·h/2 + acceleration ·(h/2)²/2, the largest over the vehicles' bounds): a sample
+    that far outside a face keeps the path out of it up to the middle of the interval."""
+    out = 0.0
+    for v in problem.vehicles():
+        vmax, amax = vehicles.model_of(v).kinematic_limits(v)
+        out = max(out, float(np.max(np.asarray(vmax, float) * h / 2
+                                    + np.asarray(amax, float) * h * h / 8)))
+    return out
 
 
 @dataclass(frozen=True)
@@ -154,12 +178,14 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
 
 
 def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
-         exclude: tuple = (), rounds: int = ROUNDS):
+         exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
     of the MILP; the paths are None when the MILP found none (or cannot be built).
     ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
     0/1 values)} — a no-good cut: at least one of those binaries differs.  ``rounds``:
-    the shortening's LPs at most (0: none).  The record's
+    the shortening's LPs at most (0: none).  ``keep_clear``: regions the formula keeps the
+    vehicle out of are inflated by the ``clearance`` of the seed step, so that the path
+    between seed samples does not cut their corners (for a start on a finer grid).  The record's
     ``choices`` are this seed's, in the same form, for every conjunct of the seed formula."""
     from stlc.backends.milp_backend import build, invariant_box
 
@@ -172,6 +198,9 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
         return None, rec
     m = seed_factor(grid, problem.requirement)
     h = m * grid.dt
+    if keep_clear and m > 1:
+        rec["clearance"] = clearance(problem, h)
+        f = seed_formula(problem, rec["clearance"])
     coarse = TimeGrid(h, grid.n_intervals // m)
     fixed = {k: np.asarray(v)[::m] for k, v in problem.fixed_channels.items()}
     cp = replace(problem, grid=coarse, fixed_channels=fixed, requirement=f, seed=None)

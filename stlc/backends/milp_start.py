@@ -8,7 +8,8 @@ hundred binaries that HiGHS solves in seconds.
 
 ``CoarseStart`` solves that coarse MILP (``milp_seed.plan``: double integrators with the
 vehicles' own speed and acceleration bounds, ρ̂ ≥ κ, then the most robust path of its
-homotopy class) in a forked child while the exact backend builds its model, and hands the
+homotopy class; every region the formula keeps the vehicle out of inflated by
+``milp_seed.clearance``, so that the path between coarse samples cannot cut its corners) in a forked child while the exact backend builds its model, and hands the
 path to the exact MILP as a seed ``Solution``.  For a vehicle whose linear model is the
 double integrator (the point mass), the coarse path with its acceleration held over each
 coarse step is a trajectory of the fine model, so the exact backend fixes its input columns
@@ -60,7 +61,7 @@ class CoarseStart(Backend):
         t0 = time.perf_counter()
         if problem.grid.n <= MAX_SAMPLES or seed_factor(problem.grid, problem.requirement) <= 1:
             return None, {"status": "not needed (a small grid: the exact MILP starts itself)"}
-        paths, rec = plan(problem, time_limit=self.time_limit, rounds=0)
+        paths, rec = plan(problem, time_limit=self.time_limit, rounds=0, keep_clear=True)
         rec.pop("choices", None)
         rec["total_s"] = time.perf_counter() - t0
         return paths, rec
