@@ -278,8 +278,9 @@ class ExactMilp(Backend):
         low.encoder.complete(x)
         x[low.top] = min(max(low.encoder.value(low.terms["requirement"], x), lo[low.top]),
                          hi[low.top])
-        self.phases.append(("coarse start (its path)", "Feasible" if np.all(
-            (x >= lo - 1e-7) & (x <= hi + 1e-7)) else "Infeasible", time.perf_counter() - t0))
+        inside = bool(np.all((x >= lo - 1e-7) & (x <= hi + 1e-7)))
+        self.phases.append(("coarse start (its path)", "within bounds" if inside else
+                            "outside the bounds", time.perf_counter() - t0))
         best = None
         for _ in range(ROUNDS):  # choices fixed → LP → the best choices on its path → …
             h = Highs(low.milp, {low.top: -1.0},

@@ -180,8 +180,9 @@ class Encoder:
     def complete(self, x) -> None:
         """Fill every term, choice and bit column of ``x`` (whose state and input columns
         are set) with its value on that trajectory: each term the exact robustness of its
-        sub-formula (clipped to the term's interval), each choice the best branch — a
-        feasible point of the encoding with no search."""
+        sub-formula (clipped to the term's interval), each choice the best branch, with no
+        search.  When the trajectory lies within the columns' intervals the point meets
+        every row of the encoding (``tests/test_milp_start.py``, Hypothesis)."""
         for node in self.nodes:
             kind, r, lo, hi, terms = node[:5]
             vals = [self.value(t, x) for t in terms]

@@ -185,8 +185,9 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     0/1 values)} — a no-good cut: at least one of those binaries differs.  ``rounds``:
     the shortening's LPs at most (0: none).  ``keep_clear``: regions the formula keeps the
     vehicle out of are inflated by the ``clearance`` of the seed step, so that the path
-    between seed samples does not cut their corners (for a start on a finer grid).  The record's
-    ``choices`` are this seed's, in the same form, for every conjunct of the seed formula."""
+    between seed samples does not cut their corners (for a start on a finer grid).  The
+    record's ``choices`` are this seed's, in the same form, for every conjunct of the seed
+    formula."""
     from stlc.backends.milp_backend import build, invariant_box
 
     t0 = time.perf_counter()
@@ -266,10 +267,10 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     choices fixed, the LP maximising ρ̂ − penalty (the most robust, economical path of that
     homotopy class); then the MILP with its choices free from that point for at most
     ``FREE_S`` (the local search never leaves the class of the first feasible path: on
-    `eventually (x ≥ 2 or y ≤ −2.5)` it kept the branch worth 0.25 where 0.75 exists).  When HiGHS proves that no path reaches κ, that result is returned at
-    once (the caller asks the sound relaxation for a proof); when none was found in time,
-    the whole MILP maximises ρ̂ − penalty in the time left and its incumbent, if any, is
-    the seed."""
+    `eventually (x ≥ 2 or y ≤ −2.5)` it kept the branch worth 0.25 where 0.75 exists).
+    When HiGHS proves that no path reaches κ, that result is returned at once (the caller
+    asks the sound relaxation for a proof); when none was found in time, the whole MILP
+    maximises ρ̂ − penalty in the time left and its incumbent, if any, is the seed."""
     from stlc.backends.milp_model import Highs
 
     t0 = time.perf_counter()
