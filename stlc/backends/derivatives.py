@@ -139,4 +139,3 @@ def chunked_hessian_option(w: ca.SX, f: ca.SX, g: ca.SX) -> dict:
     hess = chunked_hessian(w, p, f, g, x, pm, lf, lg)
     return {"hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
                                     ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])}
-
