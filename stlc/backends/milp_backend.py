@@ -286,8 +286,7 @@ class ExactMilp(Backend):
             h = Highs(low.milp, {low.top: -1.0},
                       time_limit=max(min(limit / 4, limit - 1) - (time.perf_counter() - t0),
                                      0.1))
-            for j in np.flatnonzero(low.milp.integer):
-                h.set_col_bounds(int(j), float(round(x[j])), float(round(x[j])))
+            h.fix_integers(x)
             pol = h.solve()
             self.phases.append(("coarse start (choices fixed)", pol.status, pol.wall_s))
             if pol.x is None or (best is not None and

@@ -134,12 +134,20 @@ class Highs:
                            highspy.HighsVarType.kContinuous for b in m.integer]
         h.passModel(lp)
         self.n = n
+        self.integers = np.flatnonzero(m.integer)
 
     def set_row_bounds(self, row: int, lo: float, hi: float) -> None:
         self.h.changeRowBounds(row, lo, hi)
 
     def set_col_bounds(self, col: int, lo: float, hi: float) -> None:
         self.h.changeColBounds(col, lo, hi)
+
+    def fix_integers(self, x: np.ndarray) -> None:
+        """Every integer column fixed at its (rounded) value in ``x``: the discrete choices
+        of a point kept, the rest an LP."""
+        for j in self.integers:
+            v = float(round(x[j]))
+            self.h.changeColBounds(int(j), v, v)
 
     def start(self, x: np.ndarray) -> None:
         """A MIP start (HiGHS completes or repairs it)."""

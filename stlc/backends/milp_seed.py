@@ -275,12 +275,6 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
 
     t0 = time.perf_counter()
     left = lambda: max(limit - (time.perf_counter() - t0), 0.05)  # noqa: E731
-    integers = np.flatnonzero(milp.integer)
-
-    def fixed(h, x):  # the choices of point x
-        for j in integers:
-            h.set_col_bounds(int(j), float(round(x[j])), float(round(x[j])))
-
     phases = []
     best, x = None, None
     if top >= 0:
@@ -297,7 +291,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
         for _ in range(rounds if complete is not None and x is not None else 0):
             h = Highs(milp, penalty, time_limit=left())
             h.set_col_bounds(top, kappa_lo, milp.hi[top])
-            fixed(h, x)
+            h.fix_integers(x)
             res = h.solve()
             phases.append(("shorter path (choices fixed)", res.status, res.wall_s))
             if res.x is None:
@@ -312,7 +306,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
         res = h.solve()
         phases.append(("optimisation", res.status, res.wall_s))
         return res, phases
-    fixed(h, x)  # its choices fixed: an LP
+    h.fix_integers(x)  # its choices fixed: an LP
     res = h.solve()
     phases.append(("polish (choices fixed)", res.status, res.wall_s))
     if res.x is None:
@@ -329,7 +323,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
         phases.append(("better class (choices free)", free.status, free.wall_s))
         if free.x is not None and free.objective < res.objective - 1e-6:
             h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
-            fixed(h, free.x)
+            h.fix_integers(free.x)
             pol = h.solve()
             phases.append(("polish (choices fixed)", pol.status, pol.wall_s))
             res = pol if pol.x is not None and pol.objective <= free.objective + 1e-9 else free
