@@ -237,9 +237,9 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
         vm = vehicles.model_of(v)
         X = ca.reshape(wt[L.x_slice], L.nx, n)
         U = ca.reshape(wt[L.u_slice], L.nu, N)
-        F = dynamics.discrete_dynamics(vm.ode(v), grid.dt, integrator,
-                                       substeps(grid.dt)).map(N)
-        g_list.append(ca.vec(X[:, 1:] - F(X[:, :-1], U)))
+        # the dynamics rows stay a call of the one-step map in the MX NLP (not inlined into
+        # the SX graph): ``derivatives.nlpsol_options`` assembles them
+        g_list.append(ca.SX(L.nx * N, 1))
         lbg.append(np.zeros(L.nx * N))
         ubg.append(np.zeros(L.nx * N))
         b = vm.envelope(v, vm.bounds(v))
@@ -273,7 +273,6 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     ubg.append(np.array([np.inf]))
     g = ca.vertcat(*g_list)
     obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg + fly
-    nlp = {"x": w, "p": p, "f": obj, "g": g}
     opts = dict(IPOPT_DEFAULTS)
     # developer knob: extra solver options as JSON, e.g. STLC_IPOPT='{"ipopt.print_level": 5}'
     opts.update(json.loads(os.environ.get("STLC_IPOPT", "{}")))
@@ -281,8 +280,9 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     root_fn = ca.Function("root", [w, p], [lowered.root])
     progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)
     opts["iteration_callback"] = progress
-    opts.update(derivatives.nlpsol_options(w, p, obj, g, layouts, grid.dt, integrator,
-                                           substeps(grid.dt), n_dyn))
+    nlp, derivs = derivatives.nlpsol_options(w, p, obj, g, layouts, grid.dt, integrator,
+                                             substeps(grid.dt), n_dyn)
+    opts.update(derivs)
     solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,

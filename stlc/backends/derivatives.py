@@ -77,15 +77,20 @@ def chunked_hessian(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, x: ca.MX, pm: ca.MX,
 
 def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: float,
                    integrator: str, substeps: int, n_dyn: int) -> dict:
-    """``{"jac_g": …, "hess_lag": …}`` for nlpsol: the NLP's constraint Jacobian and the
-    upper triangle of its Lagrangian Hessian, the dynamics part assembled per interval."""
+    """``(nlp, {"jac_g": …, "hess_lag": …})`` for nlpsol: the NLP over MX — its dynamics
+    rows a call of the one-step map, the rest (``f``, ``g[n_dyn:]``) one call of the SX graph
+    (``g[:n_dyn]`` is not read: the dynamics are never inlined into SX, which made nlpsol's
+    set-up walk 170 copies of the RK4 step) — and its constraint Jacobian and the upper
+    triangle of its Lagrangian Hessian, the dynamics part assembled per interval."""
     nw, ng = w.numel(), g.numel()
     n_int = (layouts[0].u_slice.stop - layouts[0].u_slice.start) // layouts[0].nu
     g_rest = g[n_dyn:]
     jac_rest = ca.Function("jac_rest", [w, p], [ca.jacobian(g_rest, w)])
-    g_fn = ca.Function("g", [w, p], [g])
+    rest_fn = ca.Function("rest", [w, p], [f, g_rest])
 
     x, pm = ca.MX.sym("x", nw), ca.MX.sym("p", p.numel())
+    f_mx, g_rest_mx = rest_fn(x, pm)
+    dyn_mx = []
     lf, lg = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
     h_nz, h_r, h_c, j_nz, j_r, j_c = [], [], [], [], [], []
     row0 = 0
@@ -99,6 +104,7 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
         jf = -ca.jacobian(fz, z)
         X = ca.reshape(x[L.x_slice], nx, -1)
         U = ca.reshape(x[L.u_slice], nu, n_int)
+        dyn_mx.append(ca.vec(X[:, 1:] - _map(step, n_int)(X[:, :-1], U)))
         MU = ca.reshape(lg[row0:row0 + nx * n_int], nx, n_int)
         h_nz.append(_map(ca.Function("hf", [xs, us, mu], [hf]), n_int)(X[:, :-1], U, MU).nz[:])
         j_nz.append(_map(ca.Function("jf", [xs, us], [jf]), n_int)(X[:, :-1], U).nz[:])
@@ -120,10 +126,12 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
     hess = _scatter(h_nz, h_r, h_c, nw, nw) + chunked_hessian(w, p, f, g_rest, x, pm, lf,
                                                               lg[n_dyn:])
     jac = ca.vertcat(_scatter(j_nz, j_r, j_c, n_dyn, nw), jac_rest(x, pm))
-    return {
+    g_mx = ca.vertcat(*dyn_mx, g_rest_mx)
+    nlp = {"x": x, "p": pm, "f": f_mx, "g": g_mx}
+    return nlp, {
         "hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
                                 ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-        "jac_g": ca.Function("nlp_jac_g", [x, pm], [g_fn(x, pm), jac], ["x", "p"],
+        "jac_g": ca.Function("nlp_jac_g", [x, pm], [g_mx, jac], ["x", "p"],
                              ["g", "jac_g_x"]),
     }
 
