@@ -218,10 +218,10 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
     nw, ng = w.numel(), g.numel()
     n_int = (layouts[0].u_slice.stop - layouts[0].u_slice.start) // layouts[0].nu
     g_rest = g[n_dyn:]
-    rest_fn = ca.Function("rest", [w, p], [f, g_rest])
-
     x, pm = ca.MX.sym("x", nw), ca.MX.sym("p", p.numel())
-    f_mx, g_rest_mx = rest_fn(x, pm)
+    # two calls, so that nlp_f and its gradient evaluate only the objective's graph
+    f_mx = ca.Function("f", [w, p], [f])(x, pm)
+    g_rest_mx = ca.Function("g_rest", [w, p], [g_rest])(x, pm)
     dyn_mx = []
     lf, lg = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
     h_nz, h_r, h_c, j_nz, j_r, j_c = [], [], [], [], [], []
