@@ -39,7 +39,7 @@ import numpy as np
 
 from stlc import deadline, interrupt, vehicles
 from stlc.backends import choices
-from stlc.backends.derivatives import hessian_option
+from stlc.backends.derivatives import derivative_options
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
     MUMPS,
@@ -159,7 +159,7 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
         lbg = np.concatenate([np.zeros(sum(x.numel() for x in g)), lb_r])
         ubg = np.concatenate([np.zeros(sum(x.numel() for x in g)), ub_r])
         solver = ca.nlpsol("guess", "ipopt", {"x": W, "f": obj - low.root, "g": G},
-                           {**hessian_option(W, obj - low.root, G),
+                           {**derivative_options(W, obj - low.root, G),
                             "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
                             "ipopt.mu_strategy": "adaptive", **GUESS_ACCEPTABLE,
