@@ -65,7 +65,8 @@ def test_move_that_breaks_the_plan_is_replanned(tmp_path):
     # independently: the nominal plan fails at the new pose, the flown one satisfies it
     assert monitor.robustness(req, 0.2, nominal.channels, prog.params) < 0
     rho = monitor.robustness(req, 0.2, flown.channels, prog.params)
-    assert rho >= 0 and rho == pytest.approx(rec["executed"]["robustness"]["mission"], abs=1e-9)
+    # executed.csv holds 9 significant digits (strictjson): metres to ~1e-8
+    assert rho >= 0 and rho == pytest.approx(rec["executed"]["robustness"]["mission"], abs=1e-7)
     # what was flown before the event (samples 0..3, t <= 0.6 s) is the nominal plan
     for k in ("p.pos.x", "p.pos.y", "p.vel.x"):
         np.testing.assert_allclose(flown.channels[k][:4], nominal.channels[k][:4], atol=1e-9)
