@@ -163,8 +163,11 @@ def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path)
                     .replace("step = 0.1 s", "step = 0.05 s")
                     .replace("always[0, 3]", "always[0, 8]")
                     .replace("eventually[0, 2] always[0, 1]", "eventually[0, 7] always[0, 1]"))
+    # the robustness stage first (not the energy stage straight from the seed, which ends
+    # this mission in 10 iterations, < 1 s): "energy" below is then the stage that must not run
     p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out)],
-                         env=env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                         env={**env(), "STLC_ENERGY_FIRST": "0"}, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
     seen = []
     for line in p.stderr:  # progress lines: interrupt inside IPOPT's iterations
         seen.append(line)

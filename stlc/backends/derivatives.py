@@ -63,7 +63,7 @@ def _rows(sp: ca.Sparsity, n: int) -> list[np.ndarray]:
     return [c[cuts[i]:cuts[i + 1]] for i in range(n)]
 
 
-_SYMBOL = re.compile(r"(?<![\w.@])[A-Za-z_][\w.:]*")
+_SYMBOL = re.compile(r"(?<![\w.@])([A-Za-z_][\w.:]*)")
 
 
 def row_groups(w: ca.SX, p: ca.SX, g: ca.SX) -> tuple[list, list[int]]:
@@ -84,13 +84,14 @@ def row_groups(w: ca.SX, p: ca.SX, g: ca.SX) -> tuple[list, list[int]]:
     digits = ca.SX.get_precision()
     ca.SX.set_precision(17)
     try:
-        for j in range(ng):
+        for j, row in enumerate(ca.vertsplit(g)):
             if len(wd[j]) == 0:
                 continue
             ren = {wn[c]: f"z{i}" for i, c in enumerate(wd[j])}
             ren.update({pn[c]: f"q{i}" for i, c in enumerate(pd[j])})
-            key = _SYMBOL.sub(lambda m: ren.get(m.group(0), m.group(0)), str(g[j]))
-            keyed.setdefault(key, []).append(j)
+            parts = _SYMBOL.split(str(row))  # odd entries: the names
+            parts[1::2] = [ren.get(t, t) for t in parts[1::2]]
+            keyed.setdefault("".join(parts), []).append(j)
     finally:
         ca.SX.set_precision(digits)
     groups = [(np.array(rows), np.array([wd[j] for j in rows]),
@@ -165,7 +166,8 @@ def _summed(nzs: list, rows: list, cols: list, nr: int, nc: int) -> ca.MX:
 
 
 def lagrangian_hessian(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, x: ca.MX, pm: ca.MX,
-                       lf: ca.MX, lg: ca.MX, extra: tuple = ((), (), ())) -> ca.MX:
+                       lf: ca.MX, lg: ca.MX, extra: tuple = ((), (), ()),
+                       grouped: tuple | None = None) -> ca.MX:
     """Upper triangle of ∇²_w (lf·f + lgᵀg) at (x, pm) as MX, plus the ``extra`` entries
     (nonzeros, rows, columns; e.g. the dynamics' per interval).  Rows of ``g`` alike up to
     the entries they read (``row_groups``: the lifted robustness repeats one operation over
@@ -174,7 +176,7 @@ def lagrangian_hessian(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, x: ca.MX, pm: ca.
     the variables it reads.  On the handover's 1,693 robustness rows: 46 groups (22 single
     rows), generation 1.4 s (chunks only) → ≈ 0.4 s, the same values to rounding."""
     nw = w.numel()
-    groups, singles = row_groups(w, p, g)
+    groups, singles = grouped or row_groups(w, p, g)
     pieces = [(f, lf)] + [(g[singles[a:a + CHUNK_ROWS]], lg[singles[a:a + CHUNK_ROWS]])
                           for a in range(0, len(singles), CHUNK_ROWS)]
     nzs, rs, cs = (list(e) for e in extra)
@@ -187,10 +189,11 @@ def lagrangian_hessian(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, x: ca.MX, pm: ca.
     return _summed(nzs, rs, cs, nw, nw)
 
 
-def rows_jacobian(w: ca.SX, p: ca.SX, g: ca.SX, x: ca.MX, pm: ca.MX) -> ca.MX:
+def rows_jacobian(w: ca.SX, p: ca.SX, g: ca.SX, x: ca.MX, pm: ca.MX,
+                  grouped: tuple | None = None) -> ca.MX:
     """∂g/∂w at (x, pm) as MX, grouped rows (``row_groups``) differentiated once per group."""
     ng, nw = g.numel(), w.numel()
-    groups, singles = row_groups(w, p, g)
+    groups, singles = grouped or row_groups(w, p, g)
     nzs, rs, cs = [], [], []
     for rows, W, P in groups:
         z, q, e = _template(g, w, p, rows[0], W[0], P[0])
@@ -259,8 +262,10 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
         j_c.append(L.x_slice.start + nx * (k + 1) + i)
         j_nz.append(ca.MX(ca.DM.ones(nx * n_int)))
         row0 += nx * n_int
-    hess = lagrangian_hessian(w, p, f, g_rest, x, pm, lf, lg[n_dyn:], (h_nz, h_r, h_c))
-    jac = ca.vertcat(_scatter(j_nz, j_r, j_c, n_dyn, nw), rows_jacobian(w, p, g_rest, x, pm))
+    grouped = row_groups(w, p, g_rest)
+    hess = lagrangian_hessian(w, p, f, g_rest, x, pm, lf, lg[n_dyn:], (h_nz, h_r, h_c), grouped)
+    jac = ca.vertcat(_scatter(j_nz, j_r, j_c, n_dyn, nw),
+                     rows_jacobian(w, p, g_rest, x, pm, grouped))
     g_mx = ca.vertcat(*dyn_mx, g_rest_mx)
     nlp = {"x": x, "p": pm, "f": f_mx, "g": g_mx}
     return nlp, {
@@ -271,17 +276,22 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
     }
 
 
-def derivative_options(w: ca.SX, f: ca.SX, g: ca.SX) -> dict:
-    """``{"hess_lag": …, "jac_g": …}`` for an nlpsol over ``w`` without parameters (the
-    kinematic guess): ``lagrangian_hessian`` and ``rows_jacobian``.  On the handover's
+def derivative_options(w: ca.SX, f: ca.SX, g: ca.SX) -> tuple[dict, dict]:
+    """``(nlp, {"hess_lag": …, "jac_g": …})`` for an nlpsol over ``w`` without parameters
+    (the kinematic guess): the NLP over MX (one call of the SX graph each for ``f`` and ``g``,
+    so that nlpsol's set-up does not walk the graph) and ``lagrangian_hessian`` and
+    ``rows_jacobian``.  On the handover's
     kinematic NLP (171 samples) nlpsol's own derivatives took 2.3 s to set up, chunks of
     rows 1.7 s; with grouped rows the whole guess takes ≈ 2.5 s of CPU instead of 4.6 s."""
     p = ca.SX.sym("p", 0)
     x, pm = ca.MX.sym("x", w.numel()), ca.MX.sym("p", 0)
     lf, lg = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
-    hess = lagrangian_hessian(w, p, f, g, x, pm, lf, lg)
+    grouped = row_groups(w, p, g)
+    hess = lagrangian_hessian(w, p, f, g, x, pm, lf, lg, grouped=grouped)
     g_mx = ca.Function("g", [w, p], [g])(x, pm)
-    return {"hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
+    jac = rows_jacobian(w, p, g, x, pm, grouped)
+    nlp = {"x": x, "f": ca.Function("f", [w, p], [f])(x, pm), "g": g_mx}
+    return nlp, {"hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
                                     ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-            "jac_g": ca.Function("nlp_jac_g", [x, pm], [g_mx, rows_jacobian(w, p, g, x, pm)],
-                                 ["x", "p"], ["g", "jac_g_x"])}
+            "jac_g": ca.Function("nlp_jac_g", [x, pm], [g_mx, jac], ["x", "p"],
+                                 ["g", "jac_g_x"])}

@@ -111,8 +111,9 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
         G = ca.vertcat(*g, cons)
         lbg = np.concatenate([np.zeros(sum(x.numel() for x in g)), lb_r])
         ubg = np.concatenate([np.zeros(sum(x.numel() for x in g)), ub_r])
-        solver = ca.nlpsol("guess", "ipopt", {"x": W, "f": obj - low.root, "g": G},
-                           {**derivative_options(W, obj - low.root, G),
+        nlp, derivs = derivative_options(W, obj - low.root, G)
+        solver = ca.nlpsol("guess", "ipopt", nlp,
+                           {**derivs,
                             "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": 300, "ipopt.tol": 1e-4,
                             "ipopt.mu_strategy": "adaptive", **GUESS_ACCEPTABLE,
