@@ -1,6 +1,13 @@
 """``stlc sweep``: the client side.  Validate, start (or connect to) a Dask cluster, submit
 one task per instance, show progress, collect rows, write the outputs.
 
+One task per worker thread is in flight (``stlc.sweep.order``: each task carries the plans
+solved so far); a finished task wakes the client at once (a done-callback queue, not a
+poll) and the next task is submitted before the finished one's bookkeeping, so a worker
+waits only for one round trip.  The first wave is cold and pre-emptible: the first plan
+sets a Dask ``Event`` that stops the cold instances still running (``stlc.sweep.task``),
+which are solved again, warm started; their builds count in ``nlp_builds``.
+
 Outputs (DIR, default ``reports/<mission>-sweep``): ``sweep.csv``, ``plans/<i>.csv``,
 ``sweep.json``, ``sweep.html``.  They are written into a private staging directory and
 published under the directory lock at the end (``stlc.output.directory.publish``, the
@@ -19,9 +26,11 @@ import json
 import logging
 import math
 import os
+import queue
 import sys
 import tempfile
 import time
+import uuid
 
 import numpy as np
 
@@ -29,6 +38,9 @@ from stlc import interrupt
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.sweep import axes as axes_mod
 from stlc.sweep.order import PREDICTED, Order
+
+
+POLL_S = 0.05  #: the client's wait for a finished task (Ctrl-C is seen within it)
 
 
 def _progress(done: int, total: int, sat: int, t0: float, quiet: bool) -> None:
@@ -138,55 +150,82 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     client = cluster = None
     interrupted = False
     futs: dict = {}
+    lost = {"builds": 0, "preempted": 0}  # pre-empted cold tries (solved again, warm)
     try:
+        from distributed import Event
+
         from stlc.sweep.task import run_instance
 
         client, cluster = _client(workers, scheduler, path)
         order = Order([{n: v for n, v, _ in inst} for inst in insts], names)
         pending: set = set()
+        finished: queue.SimpleQueue = queue.SimpleQueue()  # futures, as they finish
+        first_plan = Event(f"stlc-sweep-{uuid.uuid4().hex}", client=client)
+        cold: set = set()
 
         def submit(i: int) -> None:
             items = fixed + [(n, t) for n, _, t in insts[i]]
+            seeds = order.neighbours(i)
             f = client.submit(run_instance, source, path, m.name, items,
                               {n: v for n, v, _ in insts[i]}, i, time_limit=time_limit,
-                              seeds=order.neighbours(i), pure=False, retries=1)
+                              seeds=seeds, preempt=None if seeds else first_plan.name,
+                              pure=False, retries=1)
             futs[f] = i
             pending.add(f)
+            if not seeds:
+                cold.add(f)
+            f.add_done_callback(finished.put)
+
+        def refill() -> None:
+            slots = _slots(client, workers, scheduler)
+            while len(pending) < slots:
+                i = order.next()
+                if i is None:
+                    break
+                submit(i)
 
         for i in order.seeds(_slots(client, workers, scheduler)):
             submit(i)
         sat = 0
         _progress(0, len(insts), 0, t0, quiet)
         while pending:
-            done = [f for f in pending if f.done()]
-            for f in done:
-                pending.discard(f)
-                i = futs[f]
-                try:
-                    row = f.result()
-                except Exception as e:  # noqa: BLE001 - a worker that kept dying, etc.
-                    row = {"instance": i, "values": {n: v for n, v, _ in insts[i]},
-                           "status": "failed", "error": f"{type(e).__name__}: {e}",
-                           "robustness": float("nan"), "specs": {}, "iterations": 0,
-                           "solve_s": 0.0, "total_s": 0.0, "worker": "", "built": False}
-                plan = row.pop("plan_csv", None)
-                channels = row.pop("channels", None)
-                if plan is not None:
-                    with open(os.path.join(stage, "plans", f"{i}.csv"), "w") as fh:
-                        fh.write(plan)
-                if channels is not None:  # a satisfied plan: a seed for its neighbours
-                    order.add(i, row["values"], channels, str(row["values"]))
-                rows[i] = row
-                sat += row["status"] == "satisfied"
-                _progress(len(rows), len(insts), sat, t0, quiet)
-            while len(pending) < _slots(client, workers, scheduler):
-                i = order.next()
-                if i is None:
-                    break
-                submit(i)
-            if pending:
+            try:
+                f = finished.get(timeout=POLL_S)
+            except queue.Empty:
                 interrupt.check()
-                time.sleep(0.05)
+                continue
+            if f not in pending:
+                continue
+            pending.discard(f)
+            cold.discard(f)
+            i = futs[f]
+            try:
+                row = f.result()
+            except Exception as e:  # noqa: BLE001 - a worker that kept dying, etc.
+                row = {"instance": i, "values": {n: v for n, v, _ in insts[i]},
+                       "status": "failed", "error": f"{type(e).__name__}: {e}",
+                       "robustness": float("nan"), "specs": {}, "iterations": 0,
+                       "solve_s": 0.0, "total_s": 0.0, "worker": "", "built": False}
+            plan = row.pop("plan_csv", None)
+            channels = row.pop("channels", None)
+            if row.pop("preempted", False) and row["status"] != "satisfied":
+                lost["builds"] += bool(row.get("built"))
+                lost["preempted"] += 1
+                order.requeue(i)  # stopped for a warm start: solved again, nothing kept
+                refill()
+                continue
+            if channels is not None:  # a satisfied plan: a seed for its neighbours
+                order.add(i, row["values"], channels, str(row["values"]))
+                if cold:  # the first plan: the cold instances still running start warm
+                    first_plan.set()
+            refill()  # before the bookkeeping: no worker waits for it
+            if plan is not None:
+                with open(os.path.join(stage, "plans", f"{i}.csv"), "w") as fh:
+                    fh.write(plan)
+            rows[i] = row
+            sat += row["status"] == "satisfied"
+            _progress(len(rows), len(insts), sat, t0, quiet)
+            interrupt.check()
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -198,7 +237,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
             if client is not None and interrupted:
                 client.cancel(list(futs))
             summary = _write(stage, outdir, path, m.name, axes, insts, rows, wall, fixed,
-                             workers, scheduler, interrupted, random, seed, time_limit)
+                             workers, scheduler, interrupted, random, seed, time_limit, lost)
         finally:
             _cleanup(stage)
     _close(client, cluster)
@@ -243,7 +282,8 @@ def _csv(axes, rows: list[dict], spec_names: list[str]) -> str:
 
 
 def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, workers,
-           scheduler, interrupted, random=None, seed=0, time_limit=None) -> dict:
+           scheduler, interrupted, random=None, seed=0, time_limit=None,
+           lost: dict | None = None) -> dict:
     from stlc.output.directory import publish
     from stlc.strictjson import strict
     from stlc.sweep.report import render
@@ -265,7 +305,8 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         "varied": [{"name": a.name, "lo": a.lo * a.scale, "hi": a.hi * a.scale, "n": a.n}
                    for a in axes], "set": {n: t for n, t in fixed},
         "wall_s": wall, "per_instance_s": wall / max(len(rows), 1),
-        "nlp_builds": sum(1 for r in rows if r.get("built")),
+        "nlp_builds": sum(1 for r in rows if r.get("built")) + (lost or {}).get("builds", 0),
+        "preempted": (lost or {}).get("preempted", 0),
         "warm_started": sum(1 for r in rows if r.get("warm") == "plan library"),
         "warm_from_prediction": sum(1 for r in rows
                                     if str(r.get("seed", "")).startswith(PREDICTED)),
