@@ -1,0 +1,103 @@
+"""What a sweep's worker does around the solve, made cheaper without changing a result: the
+file's check kept between tasks (``overrides.base``) equals a fresh check, the candidate
+seeds scored as one batch equal the one-by-one scores (exact monitor), a pre-empted
+instance's time limit ends at once, and a pre-empted cold try waits again (brute force)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from test_set import SOURCE
+
+from stlc import deadline
+from stlc.analysis import monitor
+from stlc.frontend.syntax import parse
+from stlc.semantics import overrides
+from stlc.sweep.order import Order
+from stlc.sweep.task import _scorer, preemptible
+
+ITEMS = [
+    [("op.att.z", "30 deg"), ("op.pos.x", "1.2 m")],
+    [("op.att.z", "-0.5 rad"), ("p.start.pos.y", "20 cm")],
+    [("T", "2 s"), ("op.pos.y", "-0.1 m")],  # a const: checked again
+    [],
+]
+
+
+@pytest.mark.parametrize("items", ITEMS)
+def test_kept_check_equals_a_fresh_one(items):
+    tree = parse(SOURCE, "m.stl")
+    base = overrides.base(tree)
+    kept, v1 = overrides.checked(tree, items, checked_base=base)
+    fresh, v2 = overrides.checked(parse(SOURCE, "m.stl"), items)
+    assert v1 == v2
+    assert kept.params == fresh.params
+    assert kept.vehicles == fresh.vehicles
+    assert kept.scenario == fresh.scenario
+    assert repr(kept.missions["m"].requirement) == repr(fresh.missions["m"].requirement)
+    # the kept base is not changed by an instance
+    again, _ = overrides.checked(tree, [], checked_base=base)
+    assert again.params == overrides.checked(parse(SOURCE, "m.stl"))[0].params
+
+
+def test_batch_scores_equal_one_by_one():
+    tree = parse(SOURCE, "m.stl")
+    program, _ = overrides.checked(tree, [("op.att.z", "20 deg")])
+    m = program.missions["m"]
+    rng = np.random.default_rng(3)
+    n = 21
+    plans = []
+    for k in range(5):  # near the region and far from it: positive and negative scores
+        plans.append({f"p.pos.{a}": rng.normal(1.0 if a == "x" else 0.2, 0.3 + k, n)
+                      for a in "xyz"} | {f"p.vel.{a}": rng.normal(0, 1, n) for a in "xyz"})
+    one = [float(monitor.robustness(m.requirement, 0.2, p, program.params)) for p in plans]
+    scores = _scorer(program, m, 0.2)
+    assert scores(plans) == one  # bitwise: the same numpy operations, stacked
+    assert scores(plans[:1]) == one[:1]
+    mixed = [plans[0], {k: v[:-1] for k, v in plans[1].items()}]  # another length
+    assert scores(mixed) == [one[0], float(monitor.robustness(m.requirement, 0.2, mixed[1],
+                                                              program.params))]
+
+
+def test_preempted_block_sees_its_limit_end():
+    fired = threading.Event()
+    flag = {"set": False}
+    with deadline.bounded(100.0):
+        with preemptible(lambda: flag["set"], fired):
+            time.sleep(0.3)
+            assert not deadline.solve_expired() and not fired.is_set()
+            flag["set"] = True
+            t0 = time.monotonic()
+            while not deadline.solve_expired() and time.monotonic() - t0 < 5:
+                time.sleep(0.01)
+            assert deadline.solve_expired() and fired.is_set()
+    assert not deadline.active()
+    with deadline.bounded(100.0), preemptible(None, fired := threading.Event()):
+        time.sleep(0.05)
+        assert not deadline.solve_expired() and not fired.is_set()
+
+
+def test_requeued_instance_is_chosen_again_by_distance():
+    """A pre-empted cold try waits again; then ``next`` gives, as always, the waiting
+    instance nearest to a solved one — checked against brute force over the grid."""
+    pts = [{"a": float(a), "b": float(b)} for a in range(5) for b in range(4)]
+    o = Order(pts, ["a", "b"])
+    first = o.seeds(2)
+    solved, pre = first
+    o.add(solved, pts[solved], {"x": np.zeros(3)}, "")
+    o.requeue(pre)
+    seen = {solved}
+    while True:
+        i = o.next()
+        if i is None:
+            break
+        waiting = [j for j in range(len(pts)) if j not in seen and j != i]
+        x = o.x
+        d = lambda j: min(np.linalg.norm(x[j] - x[s]) for s in seen)  # noqa: E731
+        assert d(i) <= min([d(j) for j in waiting], default=np.inf) + 1e-12
+        seen.add(i)
+        o.add(i, pts[i], {"x": np.zeros(3)}, "")
+    assert seen == set(range(len(pts)))  # the pre-empted instance was solved too
