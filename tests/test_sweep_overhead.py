@@ -1,6 +1,5 @@
 """What a sweep's worker does around the solve, made cheaper without changing a result: the
-file's check kept between tasks (``overrides.base``) equals a fresh check, the candidate
-seeds scored as one batch equal the one-by-one scores (exact monitor), a pre-empted
+file's check kept between tasks (``overrides.base``) equals a fresh check, a pre-empted
 instance's time limit ends at once, and a pre-empted cold try waits again (brute force)."""
 
 from __future__ import annotations
@@ -13,11 +12,10 @@ import pytest
 from test_set import SOURCE
 
 from stlc import deadline
-from stlc.analysis import monitor
 from stlc.frontend.syntax import parse
 from stlc.semantics import overrides
 from stlc.sweep.order import Order
-from stlc.sweep.task import _scorer, preemptible
+from stlc.sweep.task import preemptible
 
 ITEMS = [
     [("op.att.z", "30 deg"), ("op.pos.x", "1.2 m")],
@@ -41,25 +39,6 @@ def test_kept_check_equals_a_fresh_one(items):
     # the kept base is not changed by an instance
     again, _ = overrides.checked(tree, [], checked_base=base)
     assert again.params == overrides.checked(parse(SOURCE, "m.stl"))[0].params
-
-
-def test_batch_scores_equal_one_by_one():
-    tree = parse(SOURCE, "m.stl")
-    program, _ = overrides.checked(tree, [("op.att.z", "20 deg")])
-    m = program.missions["m"]
-    rng = np.random.default_rng(3)
-    n = 21
-    plans = []
-    for k in range(5):  # near the region and far from it: positive and negative scores
-        plans.append({f"p.pos.{a}": rng.normal(1.0 if a == "x" else 0.2, 0.3 + k, n)
-                      for a in "xyz"} | {f"p.vel.{a}": rng.normal(0, 1, n) for a in "xyz"})
-    one = [float(monitor.robustness(m.requirement, 0.2, p, program.params)) for p in plans]
-    scores = _scorer(program, m, 0.2)
-    assert scores(plans) == one  # bitwise: the same numpy operations, stacked
-    assert scores(plans[:1]) == one[:1]
-    mixed = [plans[0], {k: v[:-1] for k, v in plans[1].items()}]  # another length
-    assert scores(mixed) == [one[0], float(monitor.robustness(m.requirement, 0.2, mixed[1],
-                                                              program.params))]
 
 
 def test_preempted_block_sees_its_limit_end():

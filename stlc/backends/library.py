@@ -36,20 +36,18 @@ class PlanLibrary:
             label: str = "") -> None:
         self.entries.append((dict(values), channels, label))
 
-    def nearest(self, values: dict[str, float], score=None, k: int = 4, scores=None
+    def nearest(self, values: dict[str, float], score=None, k: int = 4
                 ) -> tuple[dict[str, np.ndarray], str, float] | None:
         """The nearest plan; with ``score`` (channels → a number, e.g. the plan's exact
-        robustness at this instance's values), the best-scored of the ``k`` nearest (ties:
-        the nearer); ``scores`` does the same for a list of plans at once (a batch)."""
+        robustness at this instance's values), the best-scored of the ``k`` nearest."""
         if not self.entries:
             return None
-        d = self._distances(values)
-        if (score is not None or scores is not None) and len(self.entries) > 1:
-            near = [int(j) for j in np.argsort(d, kind="stable")[:k]]
-            plans = [self.entries[j][1] for j in near]
-            s = list(scores(plans)) if scores is not None else [score(p) for p in plans]
-            i = near[max(range(len(near)), key=lambda t: (s[t], -d[near[t]]))]
+        if score is not None and len(self.entries) > 1:
+            d = self._distances(values)
+            near = np.argsort(d, kind="stable")[:k]
+            i = max(near, key=lambda j: (score(self.entries[j][1]), -d[j]))
             return self.entries[i][1], self.entries[i][2], float(d[i])
+        d = self._distances(values)
         i = int(np.argmin(d))
         return self.entries[i][1], self.entries[i][2], float(d[i])
 

@@ -39,7 +39,6 @@ from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.sweep import axes as axes_mod
 from stlc.sweep.order import PREDICTED, Order
 
-
 POLL_S = 0.05  #: the client's wait for a finished task (Ctrl-C is seen within it)
 
 
@@ -104,8 +103,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
           time_limit: float | None = None) -> int:
     """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``)."""
     from stlc.frontend.syntax import parse_file
-    from stlc.output.directory import (MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup,
-                                       preflight)
+    from stlc.output.directory import MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup, preflight
     from stlc.pipeline import select_missions
     from stlc.semantics import overrides
 

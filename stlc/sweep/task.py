@@ -164,7 +164,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
         else:  # this worker's own library, per structure (``nlp_cache.structure_key``)
             lib = _LIBRARIES.setdefault((mission, structure_key(problem)), PlanLibrary())
         # of the candidates (or the 4 nearest), the most robust at this instance's values
-        near = lib.nearest(vals, scores=_scorer(program, m, problem.grid.dt),
+        near = lib.nearest(vals, _scorer(program, m, problem.grid.dt),
                            k=len(seeds) if seeds else 4) if warm else None
         if near is not None:
             chain = [LibrarySeed(*near), chain[-1]]
@@ -183,24 +183,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
 
 
 def _scorer(program, mission, dt: float):
-    """Library plans' exact robustness at this instance's values (its own pose), all at
-    once: the monitor evaluates a batch of traces stacked as ``(K, n)`` channels; plans of
-    different lengths or channels are scored one by one (same numbers)."""
+    """A library plan's exact robustness at this instance's values (its own pose)."""
     from stlc.analysis import monitor
 
-    def one(ch) -> float:
-        return float(monitor.robustness(mission.requirement, dt, ch, program.params))
-
-    def scores(plans: list) -> list[float]:
-        names = set(plans[0]).intersection(*plans[1:])
-        try:
-            stacked = {c: np.stack([np.asarray(p[c], float) for p in plans]) for c in names}
-            r = monitor.robustness(mission.requirement, dt, stacked, program.params)
-            r = np.atleast_1d(np.asarray(r, float))
-            if r.shape == (len(plans),):
-                return [float(x) for x in r]
-        except (KeyError, ValueError):  # a channel missing or of another length
-            pass
-        return [one(p) for p in plans]
-
-    return scores
+    return lambda ch: float(monitor.robustness(mission.requirement, dt, ch, program.params))
