@@ -80,3 +80,32 @@ def test_requeued_instance_is_chosen_again_by_distance():
         seen.add(i)
         o.add(i, pts[i], {"x": np.zeros(3)}, "")
     assert seen == set(range(len(pts)))  # the pre-empted instance was solved too
+
+
+def test_first_plan_preempts_a_slow_cold_instance(tmp_path, monkeypatch):
+    """Two workers start cold on one instance each; the one past the axis' middle never
+    finishes by itself (``sweep_stub``).  The first plan pre-empts it: it is solved again,
+    warm, by the real task, and the sweep has one satisfied row per instance."""
+    import csv
+    import json
+
+    import sweep_stub
+
+    from stlc.sweep import run
+
+    monkeypatch.setattr("stlc.sweep.task.run_instance", sweep_stub.run_instance)
+    f = tmp_path / "m.stl"
+    f.write_text(SOURCE)
+    out = tmp_path / "out"
+    t0 = time.monotonic()
+    rc = run.sweep(str(f), "m", ["op.pos.x=1 m:1.5 m:4"], [], str(out), workers=2, quiet=True)
+    assert time.monotonic() - t0 < 55  # not the stub's 60 s
+    assert rc == 0
+    with open(out / "sweep.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["instance"]) for r in rows] == [0, 1, 2, 3]
+    assert {r["status"] for r in rows} == {"satisfied"}
+    assert "stub" not in {r["worker"] for r in rows}  # the kept rows are real solves
+    summary = json.loads((out / "sweep.json").read_text())
+    assert summary["preempted"] == 1
+    assert summary["nlp_builds"] >= 2  # the stub's "build" counts

@@ -210,16 +210,16 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
                        "solve_s": 0.0, "total_s": 0.0, "worker": "", "built": False}
             plan = row.pop("plan_csv", None)
             channels = row.pop("channels", None)
-            if row.pop("preempted", False) and row["status"] != "satisfied":
-                lost["builds"] += bool(row.get("built"))
-                lost["preempted"] += 1
-                order.requeue(i)  # stopped for a warm start: solved again, nothing kept
-                refill()
-                continue
             if channels is not None:  # a satisfied plan: a seed for its neighbours
                 order.add(i, row["values"], channels, str(row["values"]))
                 if cold:  # the first plan: the cold instances still running start warm
                     first_plan.set()
+            if row.pop("preempted", False):  # its solve was cut: solved again, warm, and
+                lost["builds"] += bool(row.get("built"))  # only that row is kept (a
+                lost["preempted"] += 1  # satisfied plan of the cut solve is a seed)
+                order.requeue(i)
+                refill()
+                continue
             refill()  # before the bookkeeping: no worker waits for it
             if plan is not None:
                 with open(os.path.join(stage, "plans", f"{i}.csv"), "w") as fh:
