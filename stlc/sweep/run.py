@@ -5,8 +5,12 @@ One task per worker thread is in flight (``stlc.sweep.order``: each task carries
 solved so far); a finished task wakes the client at once (a done-callback queue, not a
 poll) and the next task is submitted before the finished one's bookkeeping, so a worker
 waits only for one round trip.  The first wave is cold and pre-emptible: the first plan
-sets a Dask ``Event`` that stops the cold instances still running (``stlc.sweep.task``),
-which are solved again, warm started; their builds count in ``nlp_builds``.
+starts a grace as long as its own IPOPT solve took; then a Dask ``Event`` stops the cold
+instances still running (``stlc.sweep.task``), which are solved again, warm started; their
+builds count in ``nlp_builds``.  (A cold try that began with the first and still runs then
+is slower than the first by its whole solve time: usually a long one — 216 iterations
+against ~30 warm on ``handover_left_tb``; without the grace a try only seconds from its end
+was cut: measured on ``handover_front``.)
 
 Outputs (DIR, default ``reports/<mission>-sweep``): ``sweep.csv``, ``plans/<i>.csv``,
 ``sweep.json``, ``sweep.html``.  They are written into a private staging directory and
@@ -190,7 +194,11 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
             submit(i)
         sat = 0
         _progress(0, len(insts), 0, t0, quiet)
+        preempt_at, preempting = math.inf, False  # when the cold tries still running stop
         while pending:
+            if cold and not preempting and time.perf_counter() >= preempt_at:
+                first_plan.set()
+                preempting = True
             try:
                 f = finished.get(timeout=POLL_S)
             except queue.Empty:
@@ -212,8 +220,8 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
             channels = row.pop("channels", None)
             if channels is not None:  # a satisfied plan: a seed for its neighbours
                 order.add(i, row["values"], channels, str(row["values"]))
-                if cold:  # the first plan: the cold instances still running start warm
-                    first_plan.set()
+                if cold and preempt_at == math.inf:  # the first plan: the cold ones still
+                    preempt_at = time.perf_counter() + row["solve_s"]  # running get a grace
             if row.pop("preempted", False):  # its solve was cut: solved again, warm, and
                 lost["builds"] += bool(row.get("built"))  # only that row is kept (a
                 lost["preempted"] += 1  # satisfied plan of the cut solve is a seed)
