@@ -204,6 +204,19 @@ def caught() -> None:
             time.sleep(1.0)
 
 
+def stopper() -> Callable[[], None]:
+    """A function that, called from any thread, ends the *calling* thread's active limit
+    now: its solves stop as on their time limit (best verified iterate, not converged).
+    A sweep pre-empts a cold instance with it (``stlc.sweep.task``)."""
+    st = _state.__dict__  # this thread's state (``_State`` is thread-local)
+
+    def stop() -> None:
+        if st.get("end") is not None:
+            st["end"] = min(st["end"], time.monotonic())
+
+    return stop
+
+
 def disarm() -> None:
     """From here on the caller checks the limit itself (an IPOPT callback, a solver's own
     time budget): the watchdog no longer raises."""

@@ -171,22 +171,33 @@ def apply_consts(tree: ast.File, settings: list[Setting]) -> ast.File:
     return replace(tree, members=tuple(members))
 
 
-def checked(tree: ast.File, items: list[tuple[str, str]] | None = None
-            ) -> tuple[model.Program, dict[str, float]]:
-    """Check ``tree`` and apply the ``--set`` items: the instance's checked program and the
-    values set (SI, by name)."""
+def base(tree: ast.File) -> tuple[model.Program, dict]:
+    """``tree`` checked as written, and each const's dimension (None for a plain number):
+    what every instance's ``--set`` items are resolved against (``checked``).  A sweep's
+    worker keeps it between tasks: a pose or a start changes no part of it."""
     from stlc.semantics.check import check
     from stlc.semantics.check.program import Checker
     from stlc.semantics.check.values import Num
 
-    if not items:
-        return check(tree), {}
     ck = Checker(tree)
     try:
         program = ck.run()
     except RecursionError:
         program = check(tree)  # reports STL004 as ``check`` does
-    dims = {n: v.dim for n, v in ck.globals.names.items() if isinstance(v, Num)}
+    return program, {n: v.dim for n, v in ck.globals.names.items() if isinstance(v, Num)}
+
+
+def checked(tree: ast.File, items: list[tuple[str, str]] | None = None,
+            checked_base: tuple[model.Program, dict] | None = None
+            ) -> tuple[model.Program, dict[str, float]]:
+    """Check ``tree`` and apply the ``--set`` items: the instance's checked program and the
+    values set (SI, by name).  ``checked_base``: ``base(tree)``, when the caller keeps it
+    (a const or a region's placement still checks the file again: they change the AST)."""
+    from stlc.semantics.check import check
+
+    if not items:
+        return (checked_base[0] if checked_base is not None else check(tree)), {}
+    program, dims = checked_base if checked_base is not None else base(tree)
     settings = resolve(tree.path, tree, program, dims, items)
     placed = frozenset(s.name.split(".")[0] for s in settings if s.kind == "region")
     if placed or any(s.kind == "const" for s in settings):

@@ -7,7 +7,11 @@ each worker would warm-start only from what *it* happened to solve, often two gr
 away); it keeps one task per worker in flight and
 
 * starts with one **seed instance per worker**, spread over the box (k-means centres of the
-  instances, snapped to instances), solved cold (the mission's own seed chain), in parallel;
+  instances, snapped to instances), solved cold (the mission's own seed chain), in parallel —
+  a race: once the first plan arrives, the cold instances still running are pre-empted
+  (their solve stops as on a time limit; the worker keeps its built NLP) and wait again,
+  to be solved warm like the others (``requeue``).  A cold solve costs a seed and often
+  several times a warm one's iterations (one took 216 against ~35);
 * then always submits the unsolved instance **nearest to a solved one** (distances in the
   varied values, each axis scaled by its range, as ``PlanLibrary``), so every warm start
   has a solved neighbour one grid step away whichever worker solved it;
@@ -95,6 +99,10 @@ class Order:
         i = int(np.argmin(d)) if np.isfinite(d).any() else int(np.argmax(self.waiting))
         self.waiting[i] = False
         return i
+
+    def requeue(self, i: int) -> None:
+        """``i`` waits again (a pre-empted cold try: ``stlc.sweep.run``)."""
+        self.waiting[i] = True
 
     def add(self, i: int, values: dict[str, float], channels: dict, label: str) -> None:
         self.solved[i] = (values, channels, label)

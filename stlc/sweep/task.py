@@ -10,9 +10,12 @@ of the plans it solved is used."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import threading
 import time
 import traceback
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -33,14 +36,18 @@ def _worker_name() -> str:
 
 def run_instance(source: str, path: str, mission: str, items: list[tuple[str, str]],
                  values: dict[str, float], index: int, warm: bool = True,
-                 time_limit: float | None = None, seeds: list | None = None) -> dict:
+                 time_limit: float | None = None, seeds: list | None = None,
+                 preempt: str | None = None) -> dict:
     """Plan and verify one instance; never raises for a bad instance (status ``failed``).
     ``time_limit`` (s, ``stlc sweep --time-limit``) bounds this instance from its start on
     its worker, as ``compile --time-limit`` bounds a compile (no watchdog in a worker: an
     NLP build is not cut); an instance it stops is ``stopped`` (or ``satisfied`` if the
     exact monitor says so); without it the default limit applies (``stlc.deadline``).
     ``seeds``: solved plans (values, channels, label) the client ships (``stlc.sweep.order``);
-    ``None``: this worker's own library.  A satisfied row carries its plan's ``channels``."""
+    ``None``: this worker's own library.  A satisfied row carries its plan's ``channels``.
+    ``preempt``: the name of a Dask ``Event`` the client sets to pre-empt this (cold)
+    instance — its solve stops as on its time limit and the row says ``preempted`` (the
+    client solves the instance again, warm started: ``stlc.sweep.run``)."""
     from stlc import deadline
     from stlc.backends import nlp_cache
 
@@ -51,8 +58,9 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
                  "total_s": 0.0, "worker": _worker_name(), "built": False, "warm": "",
                  "plan_csv": None}
     builds = nlp_cache.STATS["builds"]
+    fired = threading.Event()
     try:
-        with deadline.bounded(time_limit):
+        with deadline.bounded(time_limit), preemptible(_event(preempt), fired):
             row.update(_plan(source, path, mission, items, values, warm, seeds))
     except Exception as e:  # noqa: BLE001 - one instance's failure is a row, not a lost sweep
         from stlc.diagnostics import StlcError
@@ -64,18 +72,69 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
             if os.environ.get("STLC_DEBUG"):
                 row["error"] += "\n" + traceback.format_exc()
     row["built"] = nlp_cache.STATS["builds"] > builds
+    row["preempted"] = fired.is_set()
     row["total_s"] = time.perf_counter() - t0
     return row
 
 
+POLL_S = 0.25  #: how often a pre-emptible instance asks whether it is pre-empted
+
+
+def _event(name: str | None) -> Callable[[], bool] | None:
+    """``is_set`` of the Dask ``Event`` called ``name`` (None: not pre-emptible)."""
+    if name is None:
+        return None
+    try:
+        from distributed import Event, get_client
+
+        # the client is bound here, in the task's thread: the watcher's thread has none
+        return Event(name, client=get_client()).is_set
+    except (ImportError, ValueError):  # not inside a Dask worker: nobody can pre-empt
+        return None
+
+
+@contextlib.contextmanager
+def preemptible(is_set: Callable[[], bool] | None, fired: threading.Event) -> Iterator[None]:
+    """While the block runs, a thread asks ``is_set()`` every ``POLL_S``; once it is true,
+    the block's time limit ends now (``deadline.stopper``: the solve stops at its next
+    iteration, keeping its best verified iterate) and ``fired`` is set."""
+    from stlc import deadline
+
+    if is_set is None:
+        yield
+        return
+    stop, done = deadline.stopper(), threading.Event()
+
+    def watch() -> None:
+        while not done.wait(POLL_S):
+            with contextlib.suppress(Exception):  # a scheduler that does not answer: go on
+                if is_set():
+                    fired.set()
+                    stop()
+                    return
+
+    t = threading.Thread(target=watch, name="stlc-preempt", daemon=True)
+    t.start()
+    try:
+        yield
+    finally:
+        done.set()
+        t.join()
+
+
 def _parsed(source: str, path: str):
-    """The parsed file, kept between a worker's tasks (the same text every time)."""
+    """The parsed file and its check as written (``overrides.base``), kept between a
+    worker's tasks (the same text every time): a task resolves only its ``--set`` items
+    against them and checks again only for a const or a region's placement."""
     from stlc.frontend.syntax import parse
+    from stlc.semantics import overrides
 
     key = (path, hash(source))
     if _PARSED.get("key") != key:
-        _PARSED.update(key=key, tree=parse(source, path))
-    return _PARSED["tree"]
+        _PARSED.clear()
+        tree = parse(source, path)
+        _PARSED.update(key=key, tree=tree, base=overrides.base(tree))
+    return _PARSED["tree"], _PARSED["base"]
 
 
 _PARSED: dict = {}
@@ -90,20 +149,20 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     from stlc.planning.problem import from_mission
     from stlc.semantics import overrides
 
-    program, vals = overrides.checked(_parsed(source, path), items)
+    tree, base = _parsed(source, path)
+    program, vals = overrides.checked(tree, items, checked_base=base)
     m = select_missions(path, program, mission)[0]
     problem = from_mission(program, m, values=vals)
     chain = backend_chain(problem)
-    key = (mission, "")
     lib = None
     seed_label = ""
     if isinstance(chain[-1], CasadiNlp):
-        key = (mission, structure_key(problem))
-        lib = _LIBRARIES.setdefault(key, PlanLibrary())
         if seeds is not None:  # the client's nearest solved plans, whoever solved them
             lib = PlanLibrary()
             for v, ch, label in seeds:
                 lib.add(v, ch, label)
+        else:  # this worker's own library, per structure (``nlp_cache.structure_key``)
+            lib = _LIBRARIES.setdefault((mission, structure_key(problem)), PlanLibrary())
         # of the candidates (or the 4 nearest), the most robust at this instance's values
         near = lib.nearest(vals, _scorer(program, m, problem.grid.dt),
                            k=len(seeds) if seeds else 4) if warm else None
