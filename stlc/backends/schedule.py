@@ -22,7 +22,8 @@ straight from the seed's guess with the seed's choices, at the smallest λ where
 has ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (``ENERGY_FIRST``); the robustness schedule above runs only if
 its plan misses κ, from the same guess.  The seed is global (``milp_seed``) and already
 inside the class the robustness stage used to find, so that stage mostly re-did the seed's
-work.  A ``compare`` plan is then solved from the energy plan.
+work.  A robustness-only ``compare`` plan is then solved as the robustness stage's first
+solve would have been (from the guess, with its choices: ``_compare``).
 """
 
 from __future__ import annotations
