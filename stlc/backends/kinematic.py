@@ -121,7 +121,7 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
                            {**derivs,
                             "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": GUESS_MAX_ITER, "ipopt.tol": 1e-4,
-                            "ipopt.mu_strategy": "adaptive", **GUESS_ACCEPTABLE,
+                            "ipopt.mu_strategy": "adaptive", "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
                             **{f"ipopt.{k}": v for k, v in MUMPS.items()},
                             **deadline.ipopt_options()})  # the run's time limit, if any
         num_ch = path_channels(_unpack(wx0, names, n, N)) | fixed
