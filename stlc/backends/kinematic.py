@@ -121,7 +121,11 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
                            {**derivs,
                             "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.max_iter": GUESS_MAX_ITER, "ipopt.tol": 1e-4,
-                            "ipopt.mu_strategy": "adaptive", "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
+                            # bound multipliers μ/slack, as the NLP's: 7 handovers' guesses
+                            # 22.4 → 16.3 s in all (turned 180°: 6.1 → 1.8 s); 20 handovers'
+                            # compile median 11.9 → 10.4 s, all satisfied
+                            "ipopt.mu_strategy": "adaptive",
+                            "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
                             **{f"ipopt.{k}": v for k, v in MUMPS.items()},
                             **deadline.ipopt_options()})  # the run's time limit, if any
         num_ch = path_channels(_unpack(wx0, names, n, N)) | fixed
