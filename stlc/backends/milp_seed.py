@@ -28,9 +28,10 @@ The seed path is exact between seed samples (piecewise-constant acceleration), s
 sampled onto the mission grid; the kinematic NLP (``schedule.kinematic_guess(problem,
 path=…)``) smooths it at the mission step with the seed's choices fixed, and its path is
 what the NLP's guess (``schedule.full_guess``) lifts to the vehicle's states and inputs.
-The NLP's first robustness stage then keeps the same choices (``choices.choose`` on the
-lifted guess: the branch with the largest margin per sample, the best sample per window),
-and only if that misses κ solves the formula as written.
+The NLP's first stage (the energy stage with an energy objective, ``schedule.ENERGY_FIRST``,
+else the robustness stage) then keeps the same choices (``choices.choose`` on the lifted
+guess: the branch with the largest margin per sample, the best sample per window), and only
+if that misses κ does the robustness schedule solve the formula as written.
 
 When the MILP cannot be built (a position predicate that is not affine), finds no path in
 its time limit, or the mission has no predicate on positions, the seed is the kinematic
