@@ -267,12 +267,16 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
     jac = ca.vertcat(_scatter(j_nz, j_r, j_c, n_dyn, nw),
                      rows_jacobian(w, p, g_rest, x, pm, grouped))
     g_mx = ca.vertcat(*dyn_mx, g_rest_mx)
-    nlp = {"x": x, "p": pm, "f": f_mx, "g": g_mx}
-    return nlp, {
+    return {"x": x, "p": pm, "f": f_mx, "g": g_mx}, _functions(x, pm, lf, lg, hess, g_mx, jac)
+
+
+def _functions(x: ca.MX, pm: ca.MX, lf: ca.MX, lg: ca.MX, hess: ca.MX, g: ca.MX,
+               jac: ca.MX) -> dict:
+    """nlpsol's ``hess_lag`` and ``jac_g`` options from their MX expressions."""
+    return {
         "hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
                                 ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-        "jac_g": ca.Function("nlp_jac_g", [x, pm], [g_mx, jac], ["x", "p"],
-                             ["g", "jac_g_x"]),
+        "jac_g": ca.Function("nlp_jac_g", [x, pm], [g, jac], ["x", "p"], ["g", "jac_g_x"]),
     }
 
 
@@ -291,9 +295,4 @@ def derivative_options(w: ca.SX, f: ca.SX, g: ca.SX) -> tuple[dict, dict]:
     g_mx = ca.Function("g", [w, p], [g])(x, pm)
     jac = rows_jacobian(w, p, g, x, pm, grouped)
     nlp = {"x": x, "f": ca.Function("f", [w, p], [f])(x, pm), "g": g_mx}
-    return nlp, {
-        "hess_lag": ca.Function("nlp_hess_l", [x, pm, lf, lg], [hess],
-                                ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-        "jac_g": ca.Function("nlp_jac_g", [x, pm], [g_mx, jac], ["x", "p"],
-                             ["g", "jac_g_x"]),
-    }
+    return nlp, _functions(x, pm, lf, lg, hess, g_mx, jac)
