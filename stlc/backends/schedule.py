@@ -22,8 +22,9 @@ straight from the seed's guess with the seed's choices, at the smallest λ where
 has ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (``ENERGY_FIRST``); the robustness schedule above runs only if
 its plan misses κ, from the same guess.  The seed is global (``milp_seed``) and already
 inside the class the robustness stage used to find, so that stage mostly re-did the seed's
-work.  A robustness-only ``compare`` plan is then solved as the robustness stage's first
-solve would have been (from the guess, with its choices: ``_compare``).
+work.  A robustness-only ``compare`` plan is solved as the robustness stage's first solve
+would have been (from the guess, with its choices: ``_compare``) — in a forked child while
+the energy stage runs (``COMPARE_APART``), since it does not depend on the energy plan.
 """
 
 from __future__ import annotations
@@ -71,6 +72,11 @@ SEED_CHOICES = os.environ.get("STLC_SEED_CHOICES", "1") == "1"
 #: κ.  On 14 handovers (3 shipped, 8 random, 3 unseen): all satisfied, NLP iterations median
 #: 65 → 32, energy equal or lower (−0.3 % median)
 ENERGY_FIRST = os.environ.get("STLC_ENERGY_FIRST", "1") == "1"
+#: an energy-first mission's robustness-only ``compare`` plans start from the seed's guess,
+#: not from the energy plan, so they are solved in a forked child (``apart``, one core)
+#: while the energy stage runs on the other, and recorded after it (the shipped handovers:
+#: 19–35 iterations, 1.5–3 s, off the critical path)
+COMPARE_APART = os.environ.get("STLC_COMPARE_APART", "1") == "1"
 
 
 def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,
@@ -162,7 +168,9 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
     stages: list[Stage] = []
     prob.progress.kappa = kappa
 
-    def record(label, lam_, w_, stats, f_, dt_):
+    def record(label, lam_, w_, stats, f_, dt_, ran=None):
+        # ``ran``: (verify seconds, timed out) of a solve that ran apart (else this process's)
+        t_verify, timed_out = ran or (prob.progress.t_verify, prob.progress.timed_out)
         ch = trajectory_channels(w_, inv)
         exact = exact_robustness(inv.formula, inv, w_, params)
         sm = float(smooth.smooth_robustness(inv.formula, inv.grid.dt, ch, params, lam_, method))
@@ -170,11 +178,11 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         status = STATUS_MAP.get(ret, SolverStatus.FAILED)
         if status == SolverStatus.MAX_ITER and "best_iterate" in stats:
             status = SolverStatus.STOPPED
-        if prob.progress.timed_out:  # stopped by the run's time limit (stlc.deadline)
+        if timed_out:  # stopped by the run's time limit (stlc.deadline)
             status = SolverStatus.MAX_TIME
         t_fn = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
         st = Stage(label, lam_, int(stats.get("iter_count", 0)), status, sm, exact, dt_, f_,
-                   t_fn, prob.progress.t_verify,
+                   t_fn, t_verify,
                    converged=status.converged,
                    planner=_planner_smooth(prob, inv, w_, params, lam_),
                    regularizations=_regularizations(stats))
@@ -186,12 +194,26 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         return st
 
     if (warm or ENERGY_FIRST) and (obj.energy_weight > 0 or obj.forward_weight > 0):
-        done = _warm_energy(prob, inv, w0, params, problem, record)
+        ahead = None  # the robustness-only compare plans, solved apart from the guess
+        if not warm and COMPARE_APART and any(
+                v is not None and _only_rho(v) for _, v in problem.comparisons):
+            from stlc.backends import apart
+
+            ahead = apart.start(_guess_compares, prob, inv, problem, w0)
+        try:
+            done = _warm_energy(prob, inv, w0, params, problem, record)
+        except BaseException:
+            if ahead is not None:
+                ahead.cancel()
+            raise
         if done is not None:
             result = RawResult(done[0], done[1], stages)
             if not warm:  # (a sweep's instance has no `compare` plans)
-                _compare(prob, inv, problem, result, done[0], done[1], record, guess=w0)
+                _compare(prob, inv, problem, result, done[0], done[1], record, guess=w0,
+                         ahead=ahead()[0] if ahead is not None else None)
             return result
+        if ahead is not None:  # the robustness schedule below solves those plans itself
+            ahead.cancel()
     # 1. robustness: maximise ρ̃ of the planner form P_κ (margins relative to κ, in units
     #    of each predicate's own scale) until IPOPT converges; raise λ while the exact
     #    monitor says ρ < κ
@@ -240,35 +262,75 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
 
 def _compare(prob: NlpProblem, inv: InverseData, problem, result: RawResult, start: np.ndarray,
              lam: float, record, robust: np.ndarray | None = None,
-             guess: np.ndarray | None = None) -> None:
+             guess: np.ndarray | None = None, ahead: dict | None = None) -> None:
     """The mission's ``compare`` plans, each solved from ``start`` at λ with the variant's
     weights.  A robustness-only variant is ``robust`` (the robustness stage's plan) when the
     schedule solved one; else it is solved as that stage's first solve would have: from the
     seed's ``guess`` with its choices, at the mission's λ (handover_left_tb: 19 iterations;
-    from the energy plan without them, 69)."""
+    from the energy plan without them, 69) — or taken from ``ahead``, where
+    ``_guess_compares`` solved it the same way in a child while the energy stage ran."""
     for name, variant in problem.comparisons:
-        if variant is None or deadline.solve_expired():
+        if variant is None:
             continue
-        only_rho = variant.energy_weight == 0 and variant.forward_weight == 0
-        if only_rho and robust is not None:
+        if _only_rho(variant) and robust is not None:
             result.comparisons[name] = robust
             continue
-        w, lam_c = start, lam
-        if only_rho:
-            w, lam_c = guess, problem.smoothing.lam
-            if inv.choice_nodes and SEED_CHOICES:
-                inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
-                                                   problem.params, inv.grid.n, inv.planned,
-                                                   inv.grid.dt)
-        weights = [max(variant.robustness_weight, 1.0) if only_rho else
-                   variant.robustness_weight, variant.energy_weight, variant.forward_weight]
-        w_c, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, problem.params, lam_c),
-                                     [lam_c, *weights], None, f"compare {name}", STAGE_ITER,
-                                     PATIENCE, most_robust=only_rho)
-        if inv.choice_nodes:
-            inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n)
+        if ahead and name in ahead:
+            lam_c, w_c, stats, f_, dt_, ran = ahead[name]
+            record(f"compare {name}", lam_c, w_c, stats, f_, dt_, ran)
+            result.comparisons[name] = w_c
+            continue
+        if deadline.solve_expired():
+            continue
+        lam_c, w_c, stats, f_, dt_ = _compare_one(prob, inv, problem, name, variant, start,
+                                                  lam, guess)
         record(f"compare {name}", lam_c, w_c, stats, f_, dt_)
         result.comparisons[name] = w_c
+
+
+def _only_rho(variant) -> bool:
+    return variant.energy_weight == 0 and variant.forward_weight == 0
+
+
+def _compare_one(prob: NlpProblem, inv: InverseData, problem, name: str, variant,
+                 start: np.ndarray, lam: float, guess: np.ndarray | None):
+    """One ``compare`` solve (see ``_compare``): (λ, plan, IPOPT stats, objective, s)."""
+    only_rho = _only_rho(variant)
+    w, lam_c = start, lam
+    if only_rho:
+        w, lam_c = guess, problem.smoothing.lam
+        if inv.choice_nodes and SEED_CHOICES:
+            inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
+                                               problem.params, inv.grid.n, inv.planned,
+                                               inv.grid.dt)
+    weights = [max(variant.robustness_weight, 1.0) if only_rho else
+               variant.robustness_weight, variant.energy_weight, variant.forward_weight]
+    w_c, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, problem.params, lam_c),
+                                 [lam_c, *weights], None, f"compare {name}", STAGE_ITER,
+                                 PATIENCE, most_robust=only_rho)
+    if inv.choice_nodes:
+        inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n)
+    return lam_c, w_c, stats, f_, dt_
+
+
+def _guess_compares(prob: NlpProblem, inv: InverseData, problem, guess: np.ndarray) -> dict:
+    """The robustness-only ``compare`` plans from the seed's ``guess`` (``_compare_one``), as
+    a forked child runs them beside the energy stage (``COMPARE_APART``): per name (λ, plan,
+    IPOPT stats, objective, s, (verify s, timed out)).  Quiet: the parent prints each one's
+    line when it records it."""
+    quiet, prob.progress.quiet = prob.progress.quiet, True
+    out = {}
+    try:
+        for name, variant in problem.comparisons:
+            if variant is None or not _only_rho(variant) or deadline.solve_expired():
+                continue
+            lam_c, w_c, stats, f_, dt_ = _compare_one(prob, inv, problem, name, variant,
+                                                      guess, problem.smoothing.lam, guess)
+            out[name] = (lam_c, w_c, stats, f_, dt_,
+                         (prob.progress.t_verify, prob.progress.timed_out))
+    finally:
+        prob.progress.quiet = quiet
+    return out
 
 
 def _energy_lambda(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict,
