@@ -171,3 +171,22 @@ def test_a_plan_that_misses_kappa_is_planned_again_from_other_seeds(tmp_path, mo
     assert calls == [0, "kinematic", 1]  # the MILP seed, the local guess, one cut
     assert len(sol.solver["chain"]["next_choices"]) == pipeline.NEXT_CHOICES
     assert sol.status == "violated"
+
+
+def test_the_free_milp_run_apart_finds_what_it_finds_in_line(tmp_path):
+    """``MilpPathSeed`` runs the MILP with its choices free beside the kinematic smoothing
+    (``plan(..., defer_free=True)`` and the ``resume`` it returns): the seed it ends with is
+    the one ``plan`` finds with that phase in line — the same phases, the same ρ̂."""
+    program, mission = _problem(TRAP, tmp_path, "trap")
+    problem = from_mission(program, mission)
+    _, rec = milp_seed.plan(problem)
+    paths, early, resume = milp_seed.plan(problem, defer_free=True)
+    labels = [p[0] for p in early["phases"]]
+    assert paths is not None and resume is not None
+    assert "better class (choices free)" not in labels
+    better, more = resume()
+    assert [p[0] for p in more][0] == "better class (choices free)"
+    final = better[1] if better is not None else {**early, "phases": early["phases"] + more}
+    assert [p[0] for p in final["phases"]] == [p[0] for p in rec["phases"]]
+    assert final["robustness"] == pytest.approx(rec["robustness"], abs=1e-6)
+    assert final["choices"] == rec["choices"]

@@ -22,7 +22,10 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
   HiGHS on the MILP with its choices free, and found paths as short), then the LP with that
   path's binaries fixed maximising ρ̂ minus the penalty, and from it the MILP with its
   choices free for at most ``FREE_S`` (a better class, if HiGHS finds one), under
-  ``TIME_LIMIT_S`` in all.
+  ``TIME_LIMIT_S`` in all.  ``MilpPathSeed`` runs that last MILP in a forked child beside
+  the kinematic smoothing of the polished path (a handover's never closes in ``FREE_S``
+  and keeps its class: 0.5 s off the critical path); the smoothing runs again only from a
+  better class.
 
 The seed path is exact between seed samples (piecewise-constant acceleration), so it is
 sampled onto the mission grid; the kinematic NLP (``schedule.kinematic_guess(problem,
@@ -44,7 +47,6 @@ judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_c
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, replace
 
@@ -55,53 +57,17 @@ from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_backend import KinematicGuess
 from stlc.backends.milp_backend import HIGHS_STATUS_MAP
 from stlc.backends.milp_encode import NotLinear
+from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa: F401
+from stlc.backends.seed_grid import refine as _refine
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 
-MAX_STEP_S = 0.5  #: the coarsest seed step (corner cuts between samples stay ≲ v·h/2)
-MAX_SAMPLES = 61  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
 TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
 ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
 ROUNDS = 20  #: LPs of the shortening's local search, at most (≈ 30 ms each on a handover)
 ROUND_GAIN = 0.01  #: … while each one lowers the penalty by more than this fraction
 FREE_S = 0.5  #: then the MILP with its choices free, from the polished path, at most this long
 POLISH_S = 0.3  #: kept for the last LP (choices fixed)
-TOL = 1e-9
-
-
-def _bounds(f: ir.Formula) -> set[float]:
-    out: set[float] = set()
-    for g in ir.nodes(f):
-        for attr in ("lo", "hi"):
-            v = getattr(g, attr, None)
-            if isinstance(v, (int, float)) and math.isfinite(v) and not isinstance(v, bool):
-                out.add(float(v))
-    return out
-
-
-def seed_factor(grid: TimeGrid, formula: ir.Formula, max_step: float = MAX_STEP_S,
-                max_samples: int = MAX_SAMPLES) -> int:
-    """The largest m such that m·dt ≤ ``max_step`` (or, when the grid would keep more than
-    ``max_samples`` samples, any m) divides the horizon's intervals and every finite bound
-    of a temporal operator of ``formula`` on the grid."""
-    dt, N = grid.dt, grid.n_intervals
-    times = _bounds(formula)
-
-    def ok(m: int) -> bool:
-        if N % m:
-            return False
-        h = m * dt
-        return all(abs(t / h - round(t / h)) < 1e-6 for t in times)
-
-    best = 1
-    for m in range(2, N + 1):
-        if not ok(m):
-            continue
-        if m * dt <= max_step + TOL or (N // best) + 1 > max_samples:
-            best = m
-        else:
-            break
-    return best
 
 
 def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
@@ -179,7 +145,8 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
 
 
 def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
-         exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False):
+         exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False,
+         defer_free: bool = False):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
     of the MILP; the paths are None when the MILP found none (or cannot be built).
     ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
@@ -188,7 +155,10 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     vehicle out of are inflated by the ``clearance`` of the seed step, so that the path
     between seed samples does not cut their corners (for a start on a finer grid).  The
     record's ``choices`` are this seed's, in the same form, for every conjunct of the seed
-    formula."""
+    formula.  ``defer_free``: the MILP with its choices free (``_free``) is left out and a
+    third value returned — None, or a function that runs it: ((paths, record) of a better
+    class, or None when it finds none; its phases) — ``MilpPathSeed`` runs it beside the
+    kinematic smoothing."""
     from stlc.backends.milp_backend import build, invariant_box
 
     t0 = time.perf_counter()
@@ -236,29 +206,43 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
             milp.row({t: 1.0, int(col): 1.0}, 0.0, np.inf)
             cost[t] = ACC_WEIGHT * h
     limit = float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
+    t_start = time.perf_counter()
     res, phases = _solve(milp, low.top, cost, problem.threshold, limit, rounds,
-                         low.encoder.complete)
-    rec.update({"status": res.status, "step_s": h, "samples": coarse.n,
-                "binaries": milp.n_binaries, "wall_s": sum(p[2] for p in phases),
-                "build_s": low.build_s, "nodes": res.nodes,
-                "phases": [list(p) for p in phases]})
-    if res.x is None:
-        return None, rec
-    rho = float(res.x[low.top]) if low.top >= 0 else float("nan")
-    rec["robustness"] = rho
-    rec["excluded"] = len(exclude)
-    rec["choices"] = {i: (cols, [int(round(res.x[j])) for j in cols])
-                      for i, cols in bins.items() if cols}
-    paths = {}
-    for lv, v in zip(low.vehicles, problem.vehicles()):
-        xs, uu = lv.simulate(res.x)
-        paths[v.name] = _refine(xs, uu, m, grid.dt)
-    rec["total_s"] = time.perf_counter() - t0
-    return paths, rec
+                         low.encoder.complete, free=not defer_free)
+    rec.update({"step_s": h, "samples": coarse.n, "binaries": milp.n_binaries,
+                "build_s": low.build_s, "excluded": len(exclude)})
+
+    def record(res, phases) -> tuple[dict | None, dict]:
+        r = {**rec, "status": res.status, "wall_s": sum(p[2] for p in phases),
+             "nodes": res.nodes, "phases": [list(p) for p in phases]}
+        if res.x is None:
+            return None, r
+        r["robustness"] = float(res.x[low.top]) if low.top >= 0 else float("nan")
+        r["choices"] = {i: (cols, [int(round(res.x[j])) for j in cols])
+                        for i, cols in bins.items() if cols}
+        paths = {}
+        for lv, v in zip(low.vehicles, problem.vehicles()):
+            xs, uu = lv.simulate(res.x)
+            paths[v.name] = _refine(xs, uu, m, grid.dt)
+        r["total_s"] = time.perf_counter() - t0
+        return paths, r
+
+    out = record(res, phases)
+    if not defer_free:
+        return out
+    left = limit - (time.perf_counter() - t_start)
+    if out[0] is None or low.top < 0 or left <= 2 * POLISH_S:
+        return (*out, None)
+
+    def resume():
+        better, more = _free(milp, low.top, cost, problem.threshold, res, left)
+        return (record(better, list(phases) + more) if better is not res else None), more
+
+    return (*out, resume)
 
 
 def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
-           rounds: int = ROUNDS, complete=None):
+           rounds: int = ROUNDS, complete=None, free: bool = True):
     """Three phases: a path with ρ̂ ≥ κ (a feasibility MILP: HiGHS finds one far sooner than
     it closes any optimisation); then a local search for a shorter path (a feasibility
     solution's choices at samples where nothing binds are arbitrary: a path that wanders):
@@ -313,39 +297,35 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     if res.x is None:
         res.x, res.status = best.x, best.status
         return res, phases
-    if top >= 0 and left() > 2 * POLISH_S:
-        # the choices free, from that point: another class with a better ρ̂ − penalty (a
-        # small MILP closes in far less than FREE_S; a handover's does not, and keeps its)
-        h = Highs(milp, cost, time_limit=min(FREE_S, left() - POLISH_S), rel_gap=1e-3,
-                  abs_gap=1e-4)
-        h.set_col_bounds(top, kappa_lo, milp.hi[top])
-        h.start(res.x)
-        free = h.solve()
-        phases.append(("better class (choices free)", free.status, free.wall_s))
-        if free.x is not None and free.objective < res.objective - 1e-6:
-            h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
-            h.fix_integers(free.x)
-            pol = h.solve()
-            phases.append(("polish (choices fixed)", pol.status, pol.wall_s))
-            res = pol if pol.x is not None and pol.objective <= free.objective + 1e-9 else free
+    if free and top >= 0 and left() > 2 * POLISH_S:
+        res, more = _free(milp, top, cost, kappa, res, left())
+        phases += more
     return res, phases
 
 
-def _refine(xs: np.ndarray, uu: np.ndarray, m: int, dt: float):
-    """The seed path (exact between seed samples) on the mission grid."""
-    kc = xs.shape[0] - 1
-    n = kc * m + 1
-    P, V, A = np.empty((3, n)), np.empty((3, n)), np.empty((3, n - 1))
-    for j in range(n):
-        k = min(j // m, kc - 1) if kc else 0
-        r = j - k * m
-        tau = r * dt
-        a = uu[k] if kc else np.zeros(3)
-        P[:, j] = xs[k, :3] + xs[k, 3:] * tau + a * tau * tau / 2
-        V[:, j] = xs[k, 3:] + a * tau
-        if j < n - 1:
-            A[:, j] = a
-    return P, V, A
+def _free(milp, top: int, cost: dict[int, float], kappa: float, res, limit: float):
+    """The choices free, from the polished point ``res``: another class with a better
+    ρ̂ − penalty (a small MILP closes in far less than ``FREE_S``; a handover's does not,
+    and keeps its), polished with its choices fixed: (the better result, or ``res`` itself
+    when there is none, and the phases)."""
+    from stlc.backends.milp_model import Highs
+
+    t0 = time.perf_counter()
+    kappa_lo = min(max(milp.lo[top], kappa), milp.hi[top])
+    h = Highs(milp, cost, time_limit=min(FREE_S, limit - POLISH_S), rel_gap=1e-3,
+              abs_gap=1e-4)
+    h.set_col_bounds(top, kappa_lo, milp.hi[top])
+    h.start(res.x)
+    free = h.solve()
+    phases = [("better class (choices free)", free.status, free.wall_s)]
+    if free.x is not None and free.objective < res.objective - 1e-6:
+        h = Highs(milp, cost, time_limit=max(limit - (time.perf_counter() - t0), 0.05),
+                  rel_gap=1e-3, abs_gap=1e-4)
+        h.fix_integers(free.x)
+        pol = h.solve()
+        phases.append(("polish (choices fixed)", pol.status, pol.wall_s))
+        res = pol if pol.x is not None and pol.objective <= free.objective + 1e-9 else free
+    return res, phases
 
 
 class MilpPathSeed(KinematicGuess):
@@ -362,19 +342,28 @@ class MilpPathSeed(KinematicGuess):
         self.choices = None  # this seed's, after ``invert``
 
     def solve(self, lowered, problem):
-        from stlc.backends import schedule
+        from stlc.backends import apart, schedule
 
         t0 = time.perf_counter()
-        paths, rec = plan(problem, exclude=self.exclude)
+        paths, rec, resume = plan(problem, exclude=self.exclude, defer_free=True)
         proof = None
         if rec.get("phases") and rec["phases"][0][1] == "Infeasible":
             from stlc.backends.milp_conflict import prove_infeasible
 
             proof = prove_infeasible(problem)
             rec["proof_s"] = time.perf_counter() - t0 - rec.get("total_s", 0.0)
-        if proof is None:  # the kinematic NLP, from the seed path when there is one
+        if proof is None:  # the kinematic NLP, from the seed path when there is one,
+            # while the MILP with its choices free looks for a better class apart (rarely
+            # found on a handover: then the kinematic NLP runs again from that class)
             t1 = time.perf_counter()
-            paths = schedule.kinematic_guess(problem, path=paths)
+            free = apart.start(resume) if resume is not None else None
+            kin = schedule.kinematic_guess(problem, path=paths)
+            better, more = free()[0] if free is not None else (None, [])
+            rec["phases"] += [list(p) for p in more]
+            if better is not None:
+                paths, rec = better
+                kin = schedule.kinematic_guess(problem, path=paths)
+            paths = kin
             rec["kinematic_s"] = time.perf_counter() - t1
             if "robustness" not in rec:
                 rec["fallback"] = "kinematic guess"
