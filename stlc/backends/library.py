@@ -143,9 +143,8 @@ def dual_solver(prob) -> "ca.Function":
 
 
 def usable_duals(prob, duals: tuple | None) -> tuple | None:
-    """``duals`` when they fit ``prob`` (the same NLP structure: sizes), else None (also
-    with ``STLC_DUAL_WARM=0``: the primal start alone, for measuring)."""
-    if duals is None or prob.nlp is None or os.environ.get("STLC_DUAL_WARM", "1") == "0":
+    """``duals`` when they fit ``prob`` (the same NLP structure: sizes), else None."""
+    if duals is None or prob.nlp is None:
         return None
     lam_g, lam_x = duals
     return duals if len(lam_g) == prob.n_cons and len(lam_x) == prob.n_vars else None
