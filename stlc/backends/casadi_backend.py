@@ -152,10 +152,8 @@ class CasadiNlp(Backend):
         guess_s = time.perf_counter() - t0 + problem.seed.timing.get("guess_s", 0.0)
         if not self.quiet:
             print(f"  initial guess: {guess_s:.2f} s", file=sys.stderr)
-        warm = library.is_library_seed(problem.seed)  # and with the multipliers it solved for
-        duals = library.usable_duals(lowered.prob, problem.seed.duals) if warm else None
         raw = schedule.solve_mission(problem, lowered.prob, lowered.inv, w0, self.quiet,
-                                     warm=warm, duals=duals)
+                                     warm=library.is_library_seed(problem.seed))
         return raw, lowered.prob, guess_s, lowered.build_s
 
     def invert(self, raw_all, inv, problem: PlanningProblem) -> Solution:
@@ -187,7 +185,7 @@ class CasadiNlp(Backend):
             problem_size={"samples": inv.grid.n, "variables": prob.n_vars,
                           "constraints": prob.n_cons,
                           "aux": inv.aux_slice.stop - inv.aux_slice.start},
-            energy_profile=profile, feasible=feasible, duals=raw.duals)
+            energy_profile=profile, feasible=feasible)
         sol.timing.update({"build_s": build_s, "guess_s": guess_s,
                            "solve_s": sum(s.solve_s for s in raw.stages)})
         seed_t = problem.seed.timing if problem.seed is not None else {}

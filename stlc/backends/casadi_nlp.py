@@ -146,8 +146,6 @@ class NlpProblem:
     lowered: LoweredRobustness
     build_s: float
     inv: InverseData | None = None  # set by build: the choice parameters live there
-    nlp: tuple | None = None  # nlpsol's (NLP, options): ``library.dual_solver`` reuses them
-    warm: ca.Function | None = None  # that primal-dual warm-start solver, once made
 
 
 @dataclass
@@ -185,7 +183,6 @@ class RawResult:
     lam: float
     stages: list[Stage] = field(default_factory=list)
     comparisons: dict[str, np.ndarray] = field(default_factory=dict)
-    duals: tuple | None = None  # (λ_g, λ_x) of the solve that gave ``w``
 
 
 # ---------------------------------------------------------------- building
@@ -293,7 +290,7 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
-                      time.perf_counter() - t0, nlp=(nlp, opts))
+                      time.perf_counter() - t0)
     inv = InverseData(grid, layouts, slice(n_traj, n_traj + aux.numel()), formula, planned,
                       nodes, choices.written(nodes, n) if nodes else {},
                       {k: program.params[k] for k in psyms})
@@ -387,7 +384,6 @@ class Progress(ca.Callback):
     def reset(self) -> None:
         self.it = 0
         self.best_x: np.ndarray | None = None
-        self.best_duals: tuple | None = None  # its (λ_g, λ_x)
         self.best_exact = self.best_score = -np.inf
         self.best_it = 0
         self.t_verify, self.timed_out = 0.0, False
@@ -422,7 +418,6 @@ class Progress(ca.Callback):
                 if score > self.best_score + 1e-4 * max(1.0, abs(score)):
                     self.best_score, self.best_exact = score, exact
                     self.best_x, self.best_it = np.asarray(arg[0]).ravel(), self.it
-                    self.best_duals = (np.asarray(arg[4]).ravel(), np.asarray(arg[3]).ravel())
         self.t_verify += time.perf_counter() - t0
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))

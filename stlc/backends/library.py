@@ -16,9 +16,6 @@ plan (``stlc.planning.verify``), as for any other seed.
 
 from __future__ import annotations
 
-import json
-import os
-
 import numpy as np
 
 from stlc import vehicles
@@ -29,31 +26,30 @@ NAME = "plan library"
 
 
 class PlanLibrary:
-    """Solved plans of one structure: (values, channels, label, duals) entries — ``duals``
-    the multipliers of the plan's final solve, or None; ``nearest`` by scaled Euclidean
-    distance over the value names both share."""
+    """Solved plans of one structure: (values, channels) pairs; ``nearest`` by scaled
+    Euclidean distance over the value names both share."""
 
     def __init__(self) -> None:
-        self.entries: list[tuple[dict[str, float], dict[str, np.ndarray], str, object]] = []
+        self.entries: list[tuple[dict[str, float], dict[str, np.ndarray], str]] = []
 
     def add(self, values: dict[str, float], channels: dict[str, np.ndarray],
-            label: str = "", duals: tuple | None = None) -> None:
-        self.entries.append((dict(values), channels, label, duals))
+            label: str = "") -> None:
+        self.entries.append((dict(values), channels, label))
 
     def nearest(self, values: dict[str, float], score=None, k: int = 4
-                ) -> tuple[dict[str, np.ndarray], str, float, object] | None:
-        """(channels, label, distance, duals) of the nearest plan; with ``score`` (channels →
-        a number, e.g. the plan's exact robustness at this instance's values), of the
-        best-scored of the ``k`` nearest."""
+                ) -> tuple[dict[str, np.ndarray], str, float] | None:
+        """The nearest plan; with ``score`` (channels → a number, e.g. the plan's exact
+        robustness at this instance's values), the best-scored of the ``k`` nearest."""
         if not self.entries:
             return None
-        d = self._distances(values)
-        i = int(np.argmin(d))
         if score is not None and len(self.entries) > 1:
+            d = self._distances(values)
             near = np.argsort(d, kind="stable")[:k]
             i = max(near, key=lambda j: (score(self.entries[j][1]), -d[j]))
-        _, ch, label, duals = self.entries[i]
-        return ch, label, float(d[i]), duals
+            return self.entries[i][1], self.entries[i][2], float(d[i])
+        d = self._distances(values)
+        i = int(np.argmin(d))
+        return self.entries[i][1], self.entries[i][2], float(d[i])
 
     def _distances(self, values: dict[str, float]) -> np.ndarray:
         """Scaled Euclidean distance of every entry to ``values`` (each axis by its range)."""
@@ -74,10 +70,8 @@ class LibrarySeed(Backend):
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
                                 nodes=ALL_NODES, functions=ALL_FUNCTIONS)
 
-    def __init__(self, channels: dict[str, np.ndarray], label: str, distance: float,
-                 duals: tuple | None = None):
+    def __init__(self, channels: dict[str, np.ndarray], label: str, distance: float):
         self.channels, self.label, self.distance = channels, label, distance
-        self.duals = duals
 
     def accepts(self, problem) -> list:
         return []
@@ -94,8 +88,7 @@ class LibrarySeed(Backend):
                         specs={}, energy=0.0, times=problem.grid.times(), channels=dict(raw),
                         timing={"guess_s": 0.0},
                         solver={"name": NAME, "status": str(SolverStatus.NOT_RUN),
-                                "from": self.label, "distance": self.distance},
-                        duals=self.duals)
+                                "from": self.label, "distance": self.distance})
 
 
 def is_library_seed(seed: Solution | None) -> bool:
@@ -119,32 +112,3 @@ def warm_start(prob, inv, channels: dict[str, np.ndarray], params: dict[str, flo
         w[L.x_slice] = X.T.ravel()
         w[L.u_slice] = U.T.ravel()
     return fill_aux(prob, inv, w, params, lam)
-
-
-#: IPOPT's warm start from given multipliers (a sweep's instance from a neighbour's plan
-#: and the multipliers of its final solve).  IPOPT's default pushes (1e-3) and the NLP's
-#: μ_init (1e-4): on 4 neighbour pairs of the handover sweep, 1e-9 pushes with μ_init 1e-6
-#: took 146 iterations, these 123, a primal-only start 102.  ``STLC_WARM_IPOPT`` (JSON)
-#: overrides, for measuring.
-WARM_START = {"ipopt.warm_start_init_point": "yes",
-              **json.loads(os.environ.get("STLC_WARM_IPOPT", "{}"))}
-
-
-def dual_solver(prob) -> "ca.Function":
-    """``prob``'s NLP and derivatives with ``WARM_START`` (``casadi_nlp.NlpProblem.nlp``),
-    made on first use and kept beside the first solver (nlpsol shares the derivative
-    Functions: ~5 ms on the handover, whose build takes 1.5 s)."""
-    import casadi as ca
-
-    if prob.warm is None:
-        nlp, opts = prob.nlp
-        prob.warm = ca.nlpsol("stlc_warm", "ipopt", nlp, {**opts, **WARM_START})
-    return prob.warm
-
-
-def usable_duals(prob, duals: tuple | None) -> tuple | None:
-    """``duals`` when they fit ``prob`` (the same NLP structure: sizes), else None."""
-    if duals is None or prob.nlp is None:
-        return None
-    lam_g, lam_x = duals
-    return duals if len(lam_g) == prob.n_cons and len(lam_x) == prob.n_vars else None

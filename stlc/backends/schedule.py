@@ -104,13 +104,11 @@ def param_values(inv: InverseData) -> list[float]:
 
 
 def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
-           label: str, limit: int, patience: int = 10**9, most_robust: bool = True,
-           duals: tuple | None = None) -> tuple[np.ndarray, dict, float, float]:
+           label: str, limit: int, patience: int = 10**9, most_robust: bool = True
+           ) -> tuple[np.ndarray, dict, float, float]:
     """One IPOPT solve.  With ``most_robust`` the result is the dynamically feasible iterate
     with the best exact robustness (IPOPT's last iterate when that is as good); otherwise
-    the last iterate if it is feasible and satisfying, else the best one.  ``duals``: start
-    from these multipliers (λ_g, λ_x) too (``library.dual_solver``).  The stats carry the
-    result's multipliers as ``duals``."""
+    the last iterate if it is feasible and satisfying, else the best one."""
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
@@ -123,20 +121,11 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
     progress.patience = patience
     progress.mode = "robust" if most_robust else "objective"
     t0 = time.perf_counter()
-    if duals is None:
-        sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
-        solver = prob.solver
-    else:
-        from stlc.backends.library import dual_solver
-
-        solver = dual_solver(prob)
-        sol = solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg,
-                     lam_g0=duals[0], lam_x0=duals[1])
+    sol = prob.solver(x0=w0, p=p, lbx=prob.lbx, ubx=prob.ubx, lbg=lbg, ubg=prob.ubg)
     interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
     dt = time.perf_counter() - t0
     x = np.asarray(sol["x"]).ravel()
-    stats = dict(solver.stats())
-    stats["duals"] = (np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel())
+    stats = dict(prob.solver.stats())
     # IPOPT's last iterate may be worse than (or infeasible unlike) the best verified one
     ok = stats.get("return_status") in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     if progress.best_x is not None and (not ok or progress.best_exact >= progress.kappa):
@@ -148,7 +137,6 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
         if not keep_last:
             x = progress.best_x
             stats["best_iterate"] = progress.best_it
-            stats["duals"] = progress.best_duals
     return x, stats, float(sol["f"]), dt
 
 
@@ -165,12 +153,10 @@ def _planner_smooth(prob: NlpProblem, inv: InverseData, w: np.ndarray,
 
 
 def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
-                  w0: np.ndarray, quiet: bool = True, warm: bool = False,
-                  duals: tuple | None = None) -> RawResult:
+                  w0: np.ndarray, quiet: bool = True, warm: bool = False) -> RawResult:
     """The λ/energy schedule (module doc) on the built NLP, with the problem's objective,
     threshold, smoothing and comparison variants; ``warm``: ``w0`` is a neighbour's solved
-    plan (a sweep's library), ``duals`` the multipliers of its final solve, see
-    ``_warm_energy``."""
+    plan (a sweep's library), see ``_warm_energy``."""
     from stlc.analysis import smooth
 
     deadline.disarm()  # from here every solve and stage checks the time limit itself
@@ -215,13 +201,13 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
 
             ahead = apart.start(_guess_compares, prob, inv, problem, w0)
         try:
-            done = _warm_energy(prob, inv, w0, params, problem, record, duals)
+            done = _warm_energy(prob, inv, w0, params, problem, record)
         except BaseException:
             if ahead is not None:
                 ahead.cancel()
             raise
         if done is not None:
-            result = RawResult(done[0], done[1], stages, duals=done[2])
+            result = RawResult(done[0], done[1], stages)
             if not warm:  # (a sweep's instance has no `compare` plans)
                 _compare(prob, inv, problem, result, done[0], done[1], record, guess=w0,
                          ahead=ahead()[0] if ahead is not None else None)
@@ -267,9 +253,9 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         #    converges; with it active, the Hessian needs heavy regularisation), then, only if
         #    the exact monitor finds ρ < κ, with ρ̃(P_κ) ≥ PLAN_MARGIN from the robust plan
         lam_e = _energy_lambda(prob, inv, best, params, lam)
-        w_e, st, d = _energy(prob, inv, best, params, obj, kappa, lam_e, record)
+        w_e, st = _energy(prob, inv, best, params, obj, kappa, lam_e, record)
         if st.exact >= kappa:
-            result.w, result.lam, result.duals = w_e, lam_e, d
+            result.w, result.lam = w_e, lam_e
     _compare(prob, inv, problem, result, robust_w, lam, record, robust=robust_w)
     return result
 
@@ -357,49 +343,33 @@ def _energy_lambda(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: di
 
 
 def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj, kappa: float,
-            lam_e: float, record, limit: int = STAGE_ITER, duals: tuple | None = None
-            ) -> tuple[np.ndarray, Stage, tuple | None]:
+            lam_e: float, record, limit: int = STAGE_ITER) -> tuple[np.ndarray, Stage]:
     """Paper A eq. 6 from ``w`` at λ = ``lam_e`` with ``w``'s branches: unconstrained, then
-    with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ: (plan, stage, its multipliers).  With
-    ``duals`` (a neighbour's multipliers) only the unconstrained solve runs, from them too
-    (``_warm_energy``)."""
+    with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ."""
     p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
     if inv.choice_nodes:
         inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
                                            params, inv.grid.n, inv.planned, inv.grid.dt)
     w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e, None,
-                                 f"energy λ={lam_e:g}", limit, PATIENCE, most_robust=False,
-                                 duals=duals)
-    st = record("energy (dual warm start)" if duals else "energy", lam_e, w_e, stats, f_, dt_)
-    if st.exact < kappa and duals is None and not deadline.solve_expired():
+                                 f"energy λ={lam_e:g}", limit, PATIENCE, most_robust=False)
+    st = record("energy", lam_e, w_e, stats, f_, dt_)
+    if st.exact < kappa and not deadline.solve_expired():
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e,
                                      PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
                                      limit, PATIENCE, most_robust=False)
         st = record("energy (constrained)", lam_e, w_e, stats, f_, dt_)
     inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n) if inv.choice_nodes else {}
-    return w_e, st, stats.get("duals")
+    return w_e, st
 
 
 def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dict, problem,
-                 record, duals: tuple | None = None
-                 ) -> tuple[np.ndarray, float, tuple | None] | None:
+                 record) -> tuple[np.ndarray, float] | None:
     """Energy stage first (≤ 100 iterations) from ``w0`` — a neighbour's plan (a sweep) or the
-    seed's guess (``ENERGY_FIRST``): (plan, λ, its multipliers), None when its plan misses κ.
-    With the neighbour's ``duals`` IPOPT starts from its multipliers too; if that solve does
-    not converge to a plan meeting κ, the energy stage runs again as without them."""
+    seed's guess (``ENERGY_FIRST``): (plan, λ), None when its plan misses κ."""
     lam = problem.smoothing.lam
     lam_e = _energy_lambda(prob, inv, w0, params, lam)
     if _planner_smooth(prob, inv, w0, params, lam_e) < PLAN_MARGIN:
         lam_e = min(lam * LAM_FACTOR, LAM_MAX)
-    kappa = problem.threshold
-    if duals is not None:
-        lam_g = np.array(duals[0], dtype=float)
-        lam_g[prob.kappa_row] = 0.0  # the ρ̃ ≥ κ row is off in this solve
-        w_e, st, d = _energy(prob, inv, w0, params, problem.objective, kappa, lam_e, record,
-                             100, (lam_g, np.asarray(duals[1], dtype=float)))
-        if st.converged and st.exact >= kappa:
-            return w_e, lam_e, d
-        if deadline.solve_expired():
-            return None
-    w_e, st, d = _energy(prob, inv, w0, params, problem.objective, kappa, lam_e, record, 100)
-    return (w_e, lam_e, d) if st.exact >= kappa else None
+    w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record,
+                      100)
+    return (w_e, lam_e) if st.exact >= problem.threshold else None

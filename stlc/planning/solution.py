@@ -104,6 +104,3 @@ class Solution:
     conflict: list[str] = field(default_factory=list)
     #: per vehicle: can it hold the final state (``stlc.planning.holdable``)
     end_state: dict[str, dict] = field(default_factory=dict)
-    #: (λ_g, λ_x) of the NLP's final solve, in memory only: a sweep ships them with the plan
-    #: for a primal-dual warm start of its neighbours (``stlc.backends.library``)
-    duals: tuple | None = None

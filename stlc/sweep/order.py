@@ -82,7 +82,7 @@ class Order:
         self.n = len(points)
         self.waiting = np.ones(self.n, dtype=bool)  # not submitted yet
         self.dmin = np.full(self.n, np.inf)  # distance to the nearest solved instance
-        self.solved: dict[int, tuple] = {}  # instance → (values, channels, label, duals)
+        self.solved: dict[int, tuple] = {}  # instance → (values, channels, label)
 
     def seeds(self, k: int) -> list[int]:
         """The first wave: ``k`` spread-out instances (cold starts)."""
@@ -104,9 +104,8 @@ class Order:
         """``i`` waits again (a pre-empted cold try: ``stlc.sweep.run``)."""
         self.waiting[i] = True
 
-    def add(self, i: int, values: dict[str, float], channels: dict, label: str,
-            duals: tuple | None = None) -> None:
-        self.solved[i] = (values, channels, label, duals)
+    def add(self, i: int, values: dict[str, float], channels: dict, label: str) -> None:
+        self.solved[i] = (values, channels, label)
         self.dmin = np.minimum(self.dmin, np.linalg.norm(self.x - self.x[i], axis=1))
         while len(self.solved) > KEEP_PLANS:
             del self.solved[next(iter(self.solved))]
@@ -154,14 +153,4 @@ class Order:
               for n in sorted(names)}
         values = {n: sum(cj * self.solved[j][0][n] for cj, j in zip(c, ids))
                   for n in self.solved[ids[0]][0]}
-        return values, ch, f"{PREDICTED} from {len(ids)} solved neighbours", \
-            _combined([self.solved[j][3] for j in ids], c)
-
-
-def _combined(duals: list, c: np.ndarray) -> tuple | None:
-    """The multipliers Σ c_j · duals_j of a predicted plan (the same affine weights), None
-    unless every neighbour has them, of one size.  An inequality's multiplier may come out
-    with the wrong sign: IPOPT's warm start pushes the bound multipliers back (a start only)."""
-    if any(d is None for d in duals) or len({(len(d[0]), len(d[1])) for d in duals}) != 1:
-        return None
-    return tuple(sum(cj * np.asarray(d[k], float) for cj, d in zip(c, duals)) for k in (0, 1))
+        return values, ch, f"{PREDICTED} from {len(ids)} solved neighbours"

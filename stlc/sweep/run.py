@@ -217,9 +217,9 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
                        "robustness": float("nan"), "specs": {}, "iterations": 0,
                        "solve_s": 0.0, "total_s": 0.0, "worker": "", "built": False}
             plan = row.pop("plan_csv", None)
-            channels, duals = row.pop("channels", None), row.pop("duals", None)
+            channels = row.pop("channels", None)
             if channels is not None:  # a satisfied plan: a seed for its neighbours
-                order.add(i, row["values"], channels, str(row["values"]), duals)
+                order.add(i, row["values"], channels, str(row["values"]))
                 if cold and preempt_at == math.inf:  # the first plan: the cold ones still
                     preempt_at = time.perf_counter() + row["solve_s"]  # running get a grace
             if row.pop("preempted", False):  # its solve was cut: solved again, warm, and
@@ -320,10 +320,6 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         "warm_started": sum(1 for r in rows if r.get("warm") == "plan library"),
         "warm_from_prediction": sum(1 for r in rows
                                     if str(r.get("seed", "")).startswith(PREDICTED)),
-        # primal-dual warm starts (the neighbour's multipliers too) kept, and those whose
-        # solve missed and ran again from the plan alone (``schedule._warm_energy``)
-        "dual_warm_started": sum(1 for r in rows if r.get("dual") == "kept"),
-        "dual_fell_back": sum(1 for r in rows if r.get("dual") == "fell back"),
         "solve_s": quantiles([r["solve_s"] for r in ok]),
         "total_s": quantiles([r["total_s"] for r in ok]),
         "t_c_estimate_s": quantiles([r["solve_s"] for r in ok]).get("p95"),

@@ -43,9 +43,8 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     its worker, as ``compile --time-limit`` bounds a compile (no watchdog in a worker: an
     NLP build is not cut); an instance it stops is ``stopped`` (or ``satisfied`` if the
     exact monitor says so); without it the default limit applies (``stlc.deadline``).
-    ``seeds``: solved plans (values, channels, label, multipliers) the client ships
-    (``stlc.sweep.order``); ``None``: this worker's own library.  A satisfied row carries its
-    plan's ``channels`` and the multipliers of its final solve (``duals``).
+    ``seeds``: solved plans (values, channels, label) the client ships (``stlc.sweep.order``);
+    ``None``: this worker's own library.  A satisfied row carries its plan's ``channels``.
     ``preempt``: the name of a Dask ``Event`` the client sets to pre-empt this (cold)
     instance — its solve stops as on its time limit and the row says ``preempted`` (the
     client solves the instance again, warm started: ``stlc.sweep.run``)."""
@@ -160,8 +159,8 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     if isinstance(chain[-1], CasadiNlp):
         if seeds is not None:  # the client's nearest solved plans, whoever solved them
             lib = PlanLibrary()
-            for v, ch, label, *duals in seeds:  # (values, channels, label[, multipliers])
-                lib.add(v, ch, label, duals[0] if duals else None)
+            for v, ch, label in seeds:
+                lib.add(v, ch, label)
         else:  # this worker's own library, per structure (``nlp_cache.structure_key``)
             lib = _LIBRARIES.setdefault((mission, structure_key(problem)), PlanLibrary())
         # of the candidates (or the 4 nearest), the most robust at this instance's values
@@ -172,29 +171,15 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
             seed_label = near[1]
     _, sol = plan(program, m, values=vals, chain=chain)
     if lib is not None and sol.status == "satisfied" and seeds is None:
-        lib.add(vals, sol.channels, str(values), sol.duals)
+        lib.add(vals, sol.channels, str(values))
     st = sol.solver
     return {"status": str(sol.status), "robustness": float(sol.robustness_exact),
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
             "iterations": int(st.get("iterations", 0) or 0),
             "solve_s": float(sol.timing.get("solve_s", 0.0)),
             "warm": chain[0].name, "seed": seed_label, "plan_csv": trajectory_csv(sol),
-            "dual": _dual_start(st.get("stages") or []),
             "channels": ({k: np.asarray(v, float) for k, v in sol.channels.items()}
-                         if sol.status == "satisfied" else None),
-            "duals": sol.duals if sol.status == "satisfied" else None}
-
-
-def _dual_start(stages: list[dict]) -> str:
-    """How a primal-dual warm start went: "" (none), "kept" or "fell back" (its solve did
-    not converge to a plan meeting κ: the energy stage ran again from the plan alone)."""
-    labels = [s.get("label", "") for s in stages]
-    if DUAL_LABEL not in labels:
-        return ""
-    return "kept" if labels[-1] == DUAL_LABEL else "fell back"
-
-
-DUAL_LABEL = "energy (dual warm start)"  #: ``schedule._energy``'s stage of a dual start
+                         if sol.status == "satisfied" else None)}
 
 
 def _scorer(program, mission, dt: float):
