@@ -190,3 +190,23 @@ def test_the_free_milp_run_apart_finds_what_it_finds_in_line(tmp_path):
     assert [p[0] for p in final["phases"]] == [p[0] for p in rec["phases"]]
     assert final["robustness"] == pytest.approx(rec["robustness"], abs=1e-6)
     assert final["choices"] == rec["choices"]
+
+
+def test_the_kinematic_nlp_built_in_a_thread_beside_the_milp_gives_the_same_guess(tmp_path):
+    """``MilpPathSeed`` builds the seeded kinematic NLP (its choice rows as parameters) in
+    a thread while HiGHS looks for the path (``kinematic.build_in_thread``): solved from the
+    path, it gives exactly the guess ``kinematic_guess`` builds and solves in line."""
+    from stlc.backends import kinematic
+
+    program, mission = _problem(TRAP, tmp_path, "trap")
+    problem = from_mission(program, mission)
+    join = kinematic.build_in_thread(problem)
+    paths, _ = milp_seed.plan(problem)
+    nlp = join()
+    assert nlp is not None and nlp.rows  # the far box's branch and window: parameters
+    got, want = nlp.solve(paths), schedule.kinematic_guess(problem, path=paths)
+    for name in want:
+        for a, b in zip(got[name], want[name]):
+            np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError):
+        nlp.solve(None)  # a seeded NLP keeps a path's choices: it needs the path

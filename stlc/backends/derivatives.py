@@ -280,19 +280,21 @@ def _functions(x: ca.MX, pm: ca.MX, lf: ca.MX, lg: ca.MX, hess: ca.MX, g: ca.MX,
     }
 
 
-def derivative_options(w: ca.SX, f: ca.SX, g: ca.SX) -> tuple[dict, dict]:
-    """``(nlp, {"hess_lag": …, "jac_g": …})`` for an nlpsol over ``w`` without parameters
-    (the kinematic guess): the NLP over MX (one call of the SX graph each for ``f`` and ``g``,
-    so that nlpsol's set-up does not walk the graph), ``lagrangian_hessian`` and
+def derivative_options(w: ca.SX, f: ca.SX, g: ca.SX, p: ca.SX | None = None
+                       ) -> tuple[dict, dict]:
+    """``(nlp, {"hess_lag": …, "jac_g": …})`` for an nlpsol over ``w`` with parameters ``p``
+    (none by default; the kinematic guess's choice rows): the NLP over MX (one call of the
+    SX graph each for ``f`` and ``g``, so that nlpsol's set-up does not walk the graph),
+    ``lagrangian_hessian`` and
     ``rows_jacobian``.  On the handover's kinematic NLP (171 samples) nlpsol's own
     derivatives took 2.3 s to set up, chunks of rows 1.7 s; with grouped rows and the MX NLP
     the whole guess takes 1.5 s of CPU instead of 4.6 s (the same path to 2e-13)."""
-    p = ca.SX.sym("p", 0)
-    x, pm = ca.MX.sym("x", w.numel()), ca.MX.sym("p", 0)
+    p = ca.SX.sym("p", 0) if p is None else p
+    x, pm = ca.MX.sym("x", w.numel()), ca.MX.sym("p", p.numel())
     lf, lg = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
     grouped = row_groups(w, p, g)
     hess = lagrangian_hessian(w, p, f, g, x, pm, lf, lg, grouped=grouped)
     g_mx = ca.Function("g", [w, p], [g])(x, pm)
     jac = rows_jacobian(w, p, g, x, pm, grouped)
-    nlp = {"x": x, "f": ca.Function("f", [w, p], [f])(x, pm), "g": g_mx}
+    nlp = {"x": x, "p": pm, "f": ca.Function("f", [w, p], [f])(x, pm), "g": g_mx}
     return nlp, _functions(x, pm, lf, lg, hess, g_mx, jac)

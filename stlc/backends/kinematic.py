@@ -13,6 +13,9 @@ is then position and velocity from this path, level attitude, zero rates, hover 
 
 from __future__ import annotations
 
+import contextlib
+import threading
+
 import casadi as ca
 import numpy as np
 
@@ -65,93 +68,158 @@ def kinematic_guess(problem: PlanningProblem, path: dict | None = None
     are kept (``choices``: the branch of every disjunction and the sample of every window
     fixed from the start path), so this local NLP smooths the path without leaving the
     homotopy class the MILP chose."""
-    program, grid = problem.program, problem.grid
-    n, N, dt = grid.n, grid.n_intervals, grid.dt
-    names = list(problem.team)
-    keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
-    f0 = f = ir.restrict(problem.requirement, lambda s: s in keep)
-    f, fixed = _start_choices(f, path, program.params, grid) if path else (f, {})
-    syms, chans, g, lbx, ubx, x0 = [], {}, [], [], [], []
-    rest = []  # (bound index, v_max) of each vehicle's last velocity held at rest
-    obj = ca.SX(0)
-    for k, name in enumerate(names):
-        v = program.vehicles[name]
-        P, V, A = ca.SX.sym(f"P{k}", 3, n), ca.SX.sym(f"V{k}", 3, n), ca.SX.sym(f"A{k}", 3, N)
-        for i, a in enumerate("xyz"):
-            chans[f"{name}.pos.{a}"] = P[i, :]
-            chans[f"{name}.vel.{a}"] = V[i, :]
-        chans.update({c: ca.SX(ca.DM(row.reshape(1, -1))) for c, row in fixed.items()})
-        g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
-        g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
-        vmax, amax = vehicles.model_of(v).kinematic_limits(v)
-        start, vel0 = _start_kinematics(problem, name)
-        plo, phi_ = np.tile(start, (n, 1)).T.copy(), np.tile(start, (n, 1)).T.copy()
-        plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
-        vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
-        vlo[:, 0] = vhi[:, 0] = vel0
-        if problem.hold_end:  # a holdable end (flyable.py)
-            vlo[:, -1] = vhi[:, -1] = 0.0
-            rest.append((len(lbx) + 1, vmax))
-        syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
-        lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
-        ubx += [phi_.T.ravel(), vhi.T.ravel(), np.tile(amax, N)]
-        # start: hover at the start, bent sideways (breaks symmetric traps), vehicle-specific
-        s = np.sin(np.pi * np.arange(n) / max(N, 1))
-        P0 = np.tile(start, (n, 1)) + np.outer(s, [0.0, 0.15 * (1 if k % 2 == 0 else -1), 0.05])
-        if path is not None and name in path:
-            Ps, Vs, As = path[name]
-            x0 += [Ps.T.ravel(), Vs.T.ravel(), As[:, :N].T.ravel()]
-        else:
-            x0 += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
-        obj += 1e-2 * ca.sumsqr(A) / N
-    w = ca.vertcat(*syms)
-    wx0 = np.concatenate(x0)
-    if isinstance(f, ir.TrueF):
-        sol_w = wx0
-    else:
-        low = lower_robustness(f, grid, chans, program.params, GUESS_LAM,
-                               method=problem.smoothing.method)
+    return GuessNlp(problem, seeded=path is not None).solve(path)
+
+
+class GuessNlp:
+    """The kinematic NLP of ``kinematic_guess``, built before its start path is known (so
+    that ``MilpPathSeed`` builds it while HiGHS looks for the path).  ``seeded``: it will
+    start from a path and keep that path's choices — the choice form of the formula with
+    ``mix`` = 0 built in and the choice rows as NLP parameters, set by ``solve`` from the
+    path (``choices.choose``); else the formula as written, from the hover."""
+
+    def __init__(self, problem: PlanningProblem, seeded: bool):
+        program, grid = problem.program, problem.grid
+        n, N, dt = grid.n, grid.n_intervals, grid.dt
+        self.problem, self.seeded = problem, seeded
+        self.names = names = list(problem.team)
+        keep = {f"{v}.{f}.{a}" for v in names for f in ("pos", "vel") for a in "xyz"}
+        self.f0 = f = ir.restrict(problem.requirement, lambda s: s in keep)
+        self.nodes, self.rows = [], []  # choice nodes; the names of the parameter rows
+        chans: dict = {}
+        if seeded and not isinstance(f, (ir.TrueF, ir.FalseF)):
+            fixed_form, self.nodes = choices.choice_form(f, windows=True)
+            if self.nodes:
+                f = fixed_form
+                for c in choices.signals(self.nodes):
+                    if c == choices.MIX:  # the choices are kept: mix = 0, built in
+                        chans[c] = ca.SX(ca.DM.zeros(1, n))
+                    else:
+                        self.rows.append(c)
+                        chans[c] = ca.SX.sym(c, 1, n)
+        self.f = f
+        syms, g, self.lbx, self.ubx, self.hover = [], [], [], [], []
+        self.rest = []  # (bound index, v_max) of each vehicle's last velocity held at rest
+        obj = ca.SX(0)
+        for k, name in enumerate(names):
+            v = program.vehicles[name]
+            P, V, A = (ca.SX.sym(f"P{k}", 3, n), ca.SX.sym(f"V{k}", 3, n),
+                       ca.SX.sym(f"A{k}", 3, N))
+            for i, a in enumerate("xyz"):
+                chans[f"{name}.pos.{a}"] = P[i, :]
+                chans[f"{name}.vel.{a}"] = V[i, :]
+            g.append(ca.vec(P[:, 1:] - P[:, :-1] - dt * V[:, :-1] - 0.5 * dt * dt * A))
+            g.append(ca.vec(V[:, 1:] - V[:, :-1] - dt * A))
+            vmax, amax = vehicles.model_of(v).kinematic_limits(v)
+            start, vel0 = _start_kinematics(problem, name)
+            plo, phi_ = np.tile(start, (n, 1)).T.copy(), np.tile(start, (n, 1)).T.copy()
+            plo[:, 1:], phi_[:, 1:] = -np.inf, np.inf
+            vlo, vhi = np.tile(-vmax, (n, 1)).T.copy(), np.tile(vmax, (n, 1)).T.copy()
+            vlo[:, 0] = vhi[:, 0] = vel0
+            if problem.hold_end:  # a holdable end (flyable.py)
+                vlo[:, -1] = vhi[:, -1] = 0.0
+                self.rest.append((len(self.lbx) + 1, vmax))
+            syms += [ca.vec(P), ca.vec(V), ca.vec(A)]
+            self.lbx += [plo.T.ravel(), vlo.T.ravel(), np.tile(-amax, N)]
+            self.ubx += [phi_.T.ravel(), vhi.T.ravel(), np.tile(amax, N)]
+            # without a path: hover at the start, bent sideways (breaks symmetric traps)
+            s_ = np.sin(np.pi * np.arange(n) / max(N, 1))
+            P0 = np.tile(start, (n, 1)) + np.outer(s_, [0.0, 0.15 * (1 if k % 2 == 0 else -1),
+                                                        0.05])
+            self.hover += [P0.ravel(), np.zeros(3 * n), np.zeros(3 * N)]
+            obj += 1e-2 * ca.sumsqr(A) / N
+        self.nw = ca.vertcat(*syms).numel()
+        self.low = self.solver = None
+        if isinstance(f, ir.TrueF):
+            return
+        self.low = low = lower_robustness(f, grid, chans, program.params, GUESS_LAM,
+                                          method=problem.smoothing.method)
         cons, lb_r, ub_r = low.constraints()
-        W = ca.vertcat(w, low.aux)
-        G = ca.vertcat(*g, cons)
-        lbg = np.concatenate([np.zeros(sum(x.numel() for x in g)), lb_r])
-        ubg = np.concatenate([np.zeros(sum(x.numel() for x in g)), ub_r])
-        nlp, derivs = derivative_options(W, obj - low.root, G)
-        solver = ca.nlpsol("guess", "ipopt", nlp,
-                           {**derivs,
-                            "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
-                            "ipopt.max_iter": GUESS_MAX_ITER, "ipopt.tol": 1e-4,
-                            # bound multipliers μ/slack, as the NLP's: 7 handovers' guesses
-                            # 22.4 → 16.3 s in all (turned 180°: 6.1 → 1.8 s); 20 handovers'
-                            # compile median 11.9 → 10.4 s, all satisfied
-                            "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
-                            **_mu_options(path is not None),
-                            **{f"ipopt.{k}": v for k, v in MUMPS.items()},
-                            **deadline.ipopt_options()})  # the run's time limit, if any
+        n_dyn = sum(x.numel() for x in g)
+        self.lbg = np.concatenate([np.zeros(n_dyn), lb_r])
+        self.ubg = np.concatenate([np.zeros(n_dyn), ub_r])
+        p = ca.vertcat(*[ca.vec(chans[c]) for c in self.rows]) if self.rows else None
+        nlp, derivs = derivative_options(ca.vertcat(*syms, low.aux), obj - low.root,
+                                         ca.vertcat(*g, cons), p)
+        self.solver = ca.nlpsol("guess", "ipopt", nlp, {
+            **derivs,
+            "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
+            "ipopt.max_iter": GUESS_MAX_ITER, "ipopt.tol": 1e-4,
+            # bound multipliers μ/slack, as the NLP's: 7 handovers' guesses 22.4 → 16.3 s in
+            # all (turned 180°: 6.1 → 1.8 s); 20 handovers' compile median 11.9 → 10.4 s
+            "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
+            **_mu_options(seeded),
+            **{f"ipopt.{k}": v for k, v in MUMPS.items()},
+            **deadline.ipopt_options()})  # the run's time limit, if any
+
+    def solve(self, path: dict | None = None
+              ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The guess from ``path`` (a seeded NLP needs one) or from the hover."""
+        problem = self.problem
+        program, grid = problem.program, problem.grid
+        n, N, names = grid.n, grid.n_intervals, self.names
+        if self.seeded and path is None:
+            raise ValueError("a seeded kinematic NLP starts from a path")
+        if path is not None:
+            x0 = [a for name in names for a in (path[name][0].T.ravel(), path[name][1].T.ravel(),
+                                                path[name][2][:, :N].T.ravel())]
+        else:
+            x0 = self.hover
+        wx0 = np.concatenate(x0)
+        if self.solver is None:
+            return _unpack(wx0, names, n, N)
+        fixed = {}
+        if self.nodes:  # the choices of the start path (the rows the NLP reads as parameters)
+            fixed = {k: np.asarray(v, float) for k, v in choices.choose(
+                self.nodes, path_channels(path), program.params, n, self.f0,
+                grid.dt).items()}
+        pv = np.concatenate([fixed[c].ravel() for c in self.rows]) if self.rows else []
+        low = self.low
         num_ch = path_channels(_unpack(wx0, names, n, N)) | fixed
         aux0, _ = low.init_values(num_ch, program.params, GUESS_LAM)
 
         def run(lo, hi):
-            sol = solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]),
-                         lbx=np.concatenate(lo + [np.full(low.aux.numel(), -np.inf)]),
-                         ubx=np.concatenate(hi + [np.full(low.aux.numel(), np.inf)]),
-                         lbg=lbg, ubg=ubg)
+            sol = self.solver(x0=np.concatenate([wx0, np.asarray(aux0).ravel()]), p=pv,
+                              lbx=np.concatenate(lo + [np.full(low.aux.numel(), -np.inf)]),
+                              ubx=np.concatenate(hi + [np.full(low.aux.numel(), np.inf)]),
+                              lbg=self.lbg, ubg=self.ubg)
             interrupt.check()  # CasADi swallows Ctrl-C inside a solve: re-raise it here
-            x = np.asarray(sol["x"]).ravel()[: w.numel()]
-            return x, _kinematic_rho(f0, x, names, grid, program.params)
+            x = np.asarray(sol["x"]).ravel()[: self.nw]
+            return x, _kinematic_rho(self.f0, x, names, grid, program.params)
 
-        sol_w, rho = run(lbx, ubx)
-        if rest and rho < 0 and not deadline.solve_expired():
+        sol_w, rho = run(self.lbx, self.ubx)
+        if self.rest and rho < 0 and not deadline.solve_expired():
             # the end at rest is a preference of the seed (the NLP's rows make the plan
             # holdable): a path that misses the position part is solved again without it
             # (handover_low: −0.41 with it, +0.125 without; the NLP then ends it holdable)
-            lo, hi = [a.copy() for a in lbx], [a.copy() for a in ubx]
-            for i, vmax in rest:
+            lo, hi = [a.copy() for a in self.lbx], [a.copy() for a in self.ubx]
+            for i, vmax in self.rest:
                 lo[i][-3:], hi[i][-3:] = -vmax, vmax
             free_w, free_rho = run(lo, hi)
             if free_rho > rho:
                 sol_w = free_w
-    return _unpack(sol_w, names, n, N)
+        return _unpack(sol_w, names, n, N)
+
+
+def build_in_thread(problem: PlanningProblem):
+    """Build the seeded ``GuessNlp`` of ``problem`` in a thread while the caller runs the
+    MILP that finds its path (HiGHS releases the GIL, and nothing else in the process
+    touches CasADi meanwhile): the returned function joins the thread and gives the NLP, or
+    None when it could not be built (``kinematic_guess`` then builds in line and reports)."""
+    out: list = []
+
+    def build() -> None:
+        with contextlib.suppress(Exception):
+            out.append(GuessNlp(problem, seeded=True))
+
+    t = threading.Thread(target=build, name="stlc-guess-build", daemon=True)
+    t.start()
+
+    def join() -> GuessNlp | None:
+        t.join()
+        return out[0] if out else None
+
+    return join
 
 
 def _mu_options(from_path: bool) -> dict:
@@ -162,20 +230,6 @@ def _mu_options(from_path: bool) -> dict:
     if from_path:
         return {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-3}
     return {"ipopt.mu_strategy": "adaptive"}
-
-
-def _start_choices(f: ir.Formula, start: dict, params, grid: TimeGrid
-                   ) -> tuple[ir.Formula, dict[str, np.ndarray]]:
-    """``f`` in choice form and its choice rows (``choices.choose``) on the start paths: the
-    parameter signals that fix its disjunctions and windows as the start path has them
-    (``f`` itself and no rows when it has nothing to choose)."""
-    if isinstance(f, (ir.TrueF, ir.FalseF)):
-        return f, {}
-    fixed_form, nodes = choices.choice_form(f, windows=True)
-    if not nodes:
-        return f, {}
-    return fixed_form, {k: np.asarray(v, float) for k, v in choices.choose(
-        nodes, path_channels(start), params, grid.n, f, grid.dt).items()}
 
 
 def _kinematic_rho(f: ir.Formula, w: np.ndarray, names: list[str], grid: TimeGrid,

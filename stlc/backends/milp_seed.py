@@ -25,7 +25,8 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
   ``TIME_LIMIT_S`` in all.  ``MilpPathSeed`` runs that last MILP in a forked child beside
   the kinematic smoothing of the polished path (a handover's never closes in ``FREE_S``
   and keeps its class: 0.5 s off the critical path); the smoothing runs again only from a
-  better class.
+  better class.  The smoothing's NLP (``kinematic.GuessNlp``, the choice rows as its
+  parameters) is built in a thread while HiGHS runs (``kinematic.build_in_thread``).
 
 The seed path is exact between seed samples (piecewise-constant acceleration), so it is
 sampled onto the mission grid; the kinematic NLP (``schedule.kinematic_guess(problem,
@@ -55,6 +56,7 @@ import numpy as np
 from stlc import deadline, vehicles
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_backend import KinematicGuess
+from stlc.backends.kinematic import build_in_thread
 from stlc.backends.milp_backend import HIGHS_STATUS_MAP
 from stlc.backends.milp_encode import NotLinear
 from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa: F401
@@ -167,7 +169,7 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     rec: dict = {"name": "HiGHS MILP seed (highspy)"}
     if isinstance(f, (ir.TrueF, ir.FalseF)):
         rec["status"] = "no position predicate"
-        return None, rec
+        return (None, rec, None) if defer_free else (None, rec)
     m = seed_factor(grid, problem.requirement)
     h = m * grid.dt
     if keep_clear and m > 1:
@@ -183,7 +185,7 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
                     top_of="requirement")
     except (NotLinear, ValueError) as e:
         rec["status"] = f"not encodable: {e}"
-        return None, rec
+        return (None, rec, None) if defer_free else (None, rec)
     milp = low.milp
     bins = {i: [j for j in range(*low.spans[f"c{i}"]) if milp.integer[j]]
             for i in range(len(parts))}
@@ -345,7 +347,9 @@ class MilpPathSeed(KinematicGuess):
         from stlc.backends import apart, schedule
 
         t0 = time.perf_counter()
+        built = build_in_thread(problem)  # the kinematic NLP, built while HiGHS runs
         paths, rec, resume = plan(problem, exclude=self.exclude, defer_free=True)
+        nlp = built()
         proof = None
         if rec.get("phases") and rec["phases"][0][1] == "Infeasible":
             from stlc.backends.milp_conflict import prove_infeasible
@@ -357,12 +361,19 @@ class MilpPathSeed(KinematicGuess):
             # found on a handover: then the kinematic NLP runs again from that class)
             t1 = time.perf_counter()
             free = apart.start(resume) if resume is not None else None
-            kin = schedule.kinematic_guess(problem, path=paths)
+
+            def smooth(path):
+                if path is not None and nlp is not None:
+                    return nlp.solve(path)
+                return schedule.kinematic_guess(problem, path=path)
+
+            kin = smooth(paths)
             better, more = free()[0] if free is not None else (None, [])
-            rec["phases"] += [list(p) for p in more]
+            if more:
+                rec["phases"] += [list(p) for p in more]
             if better is not None:
                 paths, rec = better
-                kin = schedule.kinematic_guess(problem, path=paths)
+                kin = smooth(paths)
             paths = kin
             rec["kinematic_s"] = time.perf_counter() - t1
             if "robustness" not in rec:
