@@ -148,7 +148,11 @@ class GuessNlp:
             # bound multipliers μ/slack, as the NLP's: 7 handovers' guesses 22.4 → 16.3 s in
             # all (turned 180°: 6.1 → 1.8 s); 20 handovers' compile median 11.9 → 10.4 s
             "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
-            **_mu_options(seeded),
+            # adaptive μ.  Tried and not kept (session 5): monotone μ from 1e-3 from a MILP
+            # path — 14 handovers' guesses 430 → 307 iterations and none at the 80 cap, but
+            # on an unseen handover (h24) its converged path led the energy stage to miss κ
+            # and the compile took 58 s instead of 22 s (the schedule's whole fallback)
+            "ipopt.mu_strategy": "adaptive",
             **{f"ipopt.{k}": v for k, v in MUMPS.items()},
             **deadline.ipopt_options()})  # the run's time limit, if any
 
@@ -220,16 +224,6 @@ def build_in_thread(problem: PlanningProblem):
         return out[0] if out else None
 
     return join
-
-
-def _mu_options(from_path: bool) -> dict:
-    """IPOPT's barrier strategy: from a MILP seed's path (not far from a solution) monotone μ
-    from 1e-3 — 14 handovers' guesses 430 → 307 iterations, none at the 80 cap where
-    adaptive μ oscillated to it on 2 (μ_init 1e-2 / 1e-4: 359 / 362, one at the cap); from
-    the hover (no path) adaptive μ, as before."""
-    if from_path:
-        return {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-3}
-    return {"ipopt.mu_strategy": "adaptive"}
 
 
 def _kinematic_rho(f: ir.Formula, w: np.ndarray, names: list[str], grid: TimeGrid,
