@@ -148,7 +148,7 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
 
 def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
          exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False,
-         defer_free: bool = False):
+         defer_free: bool = False, on_solve=None):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
     of the MILP; the paths are None when the MILP found none (or cannot be built).
     ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
@@ -160,7 +160,8 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     formula.  ``defer_free``: the MILP with its choices free (``_free``) is left out and a
     third value returned — None, or a function that runs it: ((paths, record) of a better
     class, or None when it finds none; its phases) — ``MilpPathSeed`` runs it beside the
-    kinematic smoothing."""
+    kinematic smoothing.  ``on_solve()`` is called once the MILP is built, just before HiGHS
+    runs (not for a mission the MILP cannot encode)."""
     from stlc.backends.milp_backend import build, invariant_box
 
     t0 = time.perf_counter()
@@ -209,6 +210,8 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
             cost[t] = ACC_WEIGHT * h
     limit = float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
     t_start = time.perf_counter()
+    if on_solve is not None:
+        on_solve()
     res, phases = _solve(milp, low.top, cost, problem.threshold, limit, rounds,
                          low.encoder.complete, free=not defer_free)
     rec.update({"step_s": h, "samples": coarse.n, "binaries": milp.n_binaries,
@@ -347,15 +350,16 @@ class MilpPathSeed(KinematicGuess):
         from stlc.backends import apart, schedule
 
         t0 = time.perf_counter()
-        built = build_in_thread(problem)  # the kinematic NLP, built while HiGHS runs
-        paths, rec, resume = plan(problem, exclude=self.exclude, defer_free=True)
-        nlp = built()
+        builds = []  # the kinematic NLP, built in a thread while HiGHS runs
+        paths, rec, resume = plan(problem, exclude=self.exclude, defer_free=True,
+                                  on_solve=lambda: builds.append(build_in_thread(problem)))
         proof = None
         if rec.get("phases") and rec["phases"][0][1] == "Infeasible":
             from stlc.backends.milp_conflict import prove_infeasible
 
-            proof = prove_infeasible(problem)
+            proof = prove_infeasible(problem)  # HiGHS only: beside the build, too
             rec["proof_s"] = time.perf_counter() - t0 - rec.get("total_s", 0.0)
+        nlp = builds[0]() if builds else None  # joined before this thread uses CasADi
         if proof is None:  # the kinematic NLP, from the seed path when there is one,
             # while the MILP with its choices free looks for a better class apart (rarely
             # found on a handover: then the kinematic NLP runs again from that class)
