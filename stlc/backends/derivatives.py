@@ -285,10 +285,10 @@ def derivative_options(w: ca.SX, f: ca.SX, g: ca.SX, p: ca.SX | None = None
     """``(nlp, {"hess_lag": …, "jac_g": …})`` for an nlpsol over ``w`` with parameters ``p``
     (none by default; the kinematic guess's choice rows): the NLP over MX (one call of the
     SX graph each for ``f`` and ``g``, so that nlpsol's set-up does not walk the graph),
-    ``lagrangian_hessian`` and
-    ``rows_jacobian``.  On the handover's kinematic NLP (171 samples) nlpsol's own
-    derivatives took 2.3 s to set up, chunks of rows 1.7 s; with grouped rows and the MX NLP
-    the whole guess takes 1.5 s of CPU instead of 4.6 s (the same path to 2e-13)."""
+    ``lagrangian_hessian`` and ``rows_jacobian``.  On the handover's kinematic NLP (171
+    samples) nlpsol's own derivatives took 2.3 s to set up, chunks of rows 1.7 s; with
+    grouped rows and the MX NLP the whole guess takes 1.5 s of CPU instead of 4.6 s (the
+    same path to 2e-13)."""
     p = ca.SX.sym("p", 0) if p is None else p
     x, pm = ca.MX.sym("x", w.numel()), ca.MX.sym("p", p.numel())
     lf, lg = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
