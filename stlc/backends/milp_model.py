@@ -95,12 +95,21 @@ def _stdout_closed():
         os.close(saved)
 
 
+#: HiGHS options for a MILP that only looks for a feasible point (the MILP seed's first
+#: phase): no RINS/RENS sub-MIPs and no restart.  Measured on 20 handovers' seeds (session
+#: 6): 28.7 → 16.6 s in all, the slowest 5.7 → 1.4 s; the sub-MIPs took two thirds of the
+#: time and the point was found by the tree search (under another random seed: 19.9 → 15.3 s)
+FEASIBILITY_OPTIONS = {"mip_heuristic_run_rins": False, "mip_heuristic_run_rens": False,
+                       "mip_allow_restart": False}
+
+
 class Highs:
     """One HiGHS model of a ``Milp`` with the objective ``cost``; ``solve`` may be called
-    again after ``set_row_bounds`` (the model is not rebuilt)."""
+    again after ``set_row_bounds`` (the model is not rebuilt).  ``feasibility``: the
+    ``FEASIBILITY_OPTIONS`` (a search for one feasible point)."""
 
     def __init__(self, m: Milp, cost: dict[int, float], *, time_limit: float | None = None,
-                 rel_gap: float = 1e-9, abs_gap: float = 1e-9):
+                 rel_gap: float = 1e-9, abs_gap: float = 1e-9, feasibility: bool = False):
         import highspy
 
         with _stdout_closed():
@@ -113,6 +122,8 @@ class Highs:
         h.setOptionValue("primal_feasibility_tolerance", 1e-9)
         if time_limit is not None:
             h.setOptionValue("time_limit", float(max(time_limit, 0.01)))
+        for k, v in (FEASIBILITY_OPTIONS.items() if feasibility else ()):
+            h.setOptionValue(k, v)
         lp = highspy.HighsLp()
         n = m.n_cols
         lp.num_col_, lp.num_row_ = n, len(m.rows)

@@ -8,9 +8,10 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
   speed and acceleration bounds its model offers for a guess
   (``VehicleModel.kinematic_limits``: for a multirotor a per-axis speed and acceleration it
   can fly at any attitude the NLP allows — an inner bound, so the NLP can follow the path);
-* the requirement keeps its predicates on positions and velocities; every other predicate
-  (speed norm, heading, rotor speed, attitude, payload) becomes ``true`` (the NLP adds
-  them back);
+* the requirement keeps its predicates on positions and velocities; an upper bound on a
+  norm of them (a speed limit) becomes the box inside its ball (``seed_inner``); every
+  other predicate (a lower bound on a norm, heading, rotor speed, attitude, payload)
+  becomes ``true`` (the NLP adds them back);
 * the grid is **as coarse as the formula's intervals allow**: the largest multiple h of the
   mission step, at most ``MAX_STEP_S``, that divides the horizon and every finite bound of a
   temporal operator — so every window of the formula falls on seed samples;
@@ -61,6 +62,7 @@ from stlc.backends.milp_backend import HIGHS_STATUS_MAP
 from stlc.backends.milp_encode import NotLinear
 from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa: F401
 from stlc.backends.seed_grid import refine as _refine
+from stlc.backends.seed_inner import inner_norms
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 
@@ -80,8 +82,8 @@ def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
     from stlc.backends.milp_conflict import _drop_nonlinear, _kept_channels
 
     keep = _kept_channels(problem)  # positions, velocities and fixed channels
-    f = ir.restrict(_drop_nonlinear(problem.requirement, problem.params, {}),
-                    lambda s: s in keep)
+    inner = inner_norms(problem.requirement, problem.params)  # speed limits: inner boxes
+    f = ir.restrict(_drop_nonlinear(inner, problem.params, {}), lambda s: s in keep)
     if clearance <= 0:
         return f
 
@@ -269,7 +271,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     best, x = None, None
     if top >= 0:
         kappa_lo = min(max(milp.lo[top], kappa), milp.hi[top])
-        h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6)
+        h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6, feasibility=True)
         h.set_col_bounds(top, kappa_lo, milp.hi[top])
         best = h.solve()
         phases.append(("feasibility", best.status, best.wall_s))
