@@ -175,6 +175,17 @@ class Stage:
     converged: bool = False  # IPOPT's own test: Solve_Succeeded / Solved_To_Acceptable_Level
     planner: float = 0.0  # ρ̃ of the planner form (what the NLP maximises / constrains)
     regularizations: int = 0  # iterations where IPOPT regularised the KKT matrix
+    #: the plan meets the dynamics to FEASIBLE_DEFECT (a stage stopped on its iteration
+    #: limit with no feasible iterate returns its last one, which may not)
+    feasible: bool = True
+
+    def meets(self, kappa: float) -> bool:
+        """The stage's plan is a plan (dynamically feasible) with exact ρ ≥ κ."""
+        return self.feasible and self.exact >= kappa
+
+    def score(self) -> float:
+        """Exact ρ of a feasible plan, −∞ for one that does not meet the dynamics."""
+        return self.exact if self.feasible else -np.inf
 
 
 @dataclass

@@ -39,6 +39,7 @@ from stlc import deadline, interrupt, vehicles
 from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
+    FEASIBLE_DEFECT,
     PLAN_MARGIN,
     STATUS_MAP,
     InverseData,
@@ -137,6 +138,10 @@ def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None
         if not keep_last:
             x = progress.best_x
             stats["best_iterate"] = progress.best_it
+    # a kept iterate was verified feasible; IPOPT's last one is only if its dynamics rows are
+    g = np.asarray(sol["g"]).ravel()[:prob.n_dyn]
+    stats["feasible"] = bool("best_iterate" in stats or not g.size
+                             or np.max(np.abs(g)) <= FEASIBLE_DEFECT)
     return x, stats, float(sol["f"]), dt
 
 
@@ -185,7 +190,8 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
                    t_fn, t_verify,
                    converged=status.converged,
                    planner=_planner_smooth(prob, inv, w_, params, lam_),
-                   regularizations=_regularizations(stats))
+                   regularizations=_regularizations(stats),
+                   feasible=bool(stats.get("feasible", True)))
         stages.append(st)
         if not quiet:
             print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}"
@@ -229,9 +235,9 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
                                    None, f"robustness λ={lam:g}", limit, PATIENCE)
         st = record("robustness:seeded" if seeded else "robustness", lam, w,
                     stats, f_, dt_)
-        if best_st is None or st.exact > best_st.exact:
+        if best_st is None or st.score() > best_st.score():
             best, best_st = w, st
-        if st.exact >= kappa or lam * LAM_FACTOR > LAM_MAX or deadline.solve_expired():
+        if st.meets(kappa) or lam * LAM_FACTOR > LAM_MAX or deadline.solve_expired():
             break
         if seeded:  # the guess's choices do not reach κ: solve the formula as written
             seeded = False
@@ -245,7 +251,7 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
     lam = best_st.lam
     result = RawResult(best, lam, stages)
     robust_w = best
-    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.exact >= kappa \
+    if (obj.energy_weight > 0 or obj.forward_weight > 0) and best_st.meets(kappa) \
             and not deadline.solve_expired():
         # 2. paper A eq. 6 on the planner form: minimise w·E − ρ̃(P_κ), at the smallest λ of
         #    the schedule where the robust plan has ρ̃(P_κ) ≥ PLAN_MARGIN.  First without the
@@ -254,7 +260,7 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         #    the exact monitor finds ρ < κ, with ρ̃(P_κ) ≥ PLAN_MARGIN from the robust plan
         lam_e = _energy_lambda(prob, inv, best, params, lam)
         w_e, st = _energy(prob, inv, best, params, obj, kappa, lam_e, record)
-        if st.exact >= kappa:
+        if st.meets(kappa):
             result.w, result.lam = w_e, lam_e
     _compare(prob, inv, problem, result, robust_w, lam, record, robust=robust_w)
     return result
@@ -353,7 +359,7 @@ def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj
     w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e, None,
                                  f"energy λ={lam_e:g}", limit, PATIENCE, most_robust=False)
     st = record("energy", lam_e, w_e, stats, f_, dt_)
-    if st.exact < kappa and not deadline.solve_expired():
+    if not st.meets(kappa) and not deadline.solve_expired():
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e,
                                      PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
                                      limit, PATIENCE, most_robust=False)
@@ -372,4 +378,4 @@ def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dic
         lam_e = min(lam * LAM_FACTOR, LAM_MAX)
     w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record,
                       100)
-    return (w_e, lam_e) if st.exact >= problem.threshold else None
+    return (w_e, lam_e) if st.meets(problem.threshold) else None
