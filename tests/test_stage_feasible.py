@@ -52,3 +52,28 @@ def test_a_teleporting_last_iterate_is_marked_infeasible():
     assert stats["feasible"] == (casadi_nlp.dynamics_defect(w, inv, problem.integrator)
                                  <= FEASIBLE_DEFECT)
     assert stats["feasible"]
+
+
+def test_a_warm_energy_stage_that_misses_kappa_goes_straight_to_the_schedule():
+    # κ = 0.5 is beyond any plan of the climb (the shelf's half-height is 0.2 m), so every
+    # energy stage misses it: from the seed's guess the constrained stage is tried too, from
+    # a neighbour's plan (a sweep's warm start) the robustness schedule runs at once
+    from dataclasses import replace
+
+    program = load(str(ROOT / "tests" / "missions" / "hexa_climb.stl")).program
+    problem = replace(from_mission(program, program.missions["climb"]), threshold=0.5)
+    prob, inv = casadi_nlp.build(problem)
+    n = inv.grid.n
+    P = np.tile([[0.0], [0.0], [1.0]], n)
+    kin = {"uav1": (P, np.zeros((3, n)), np.zeros((3, n - 1)))}
+    w0 = schedule.full_guess(program, prob, inv, kin, problem.smoothing.lam)
+    labels = {}
+    for warm in (False, True):
+        stages = []
+        record = lambda label, *a, **k: stages.append(label) or Stage(  # noqa: E731
+            label, 10.0, 0, "optimal", 0.0, 0.0, 0.0, 0.0)
+        prob.progress.kappa = problem.threshold
+        assert schedule._warm_energy(prob, inv, w0, problem.params, problem, record,
+                                     retry=not warm) is None
+        labels[warm] = stages
+    assert labels == {False: ["energy", "energy (constrained)"], True: ["energy"]}

@@ -207,7 +207,7 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
 
             ahead = apart.start(_guess_compares, prob, inv, problem, w0)
         try:
-            done = _warm_energy(prob, inv, w0, params, problem, record)
+            done = _warm_energy(prob, inv, w0, params, problem, record, retry=not warm)
         except BaseException:
             if ahead is not None:
                 ahead.cancel()
@@ -349,9 +349,10 @@ def _energy_lambda(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: di
 
 
 def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj, kappa: float,
-            lam_e: float, record, limit: int = STAGE_ITER) -> tuple[np.ndarray, Stage]:
+            lam_e: float, record, limit: int = STAGE_ITER, retry: bool = True
+            ) -> tuple[np.ndarray, Stage]:
     """Paper A eq. 6 from ``w`` at λ = ``lam_e`` with ``w``'s branches: unconstrained, then
-    with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ."""
+    (``retry``) with ρ̃(P_κ) ≥ PLAN_MARGIN only if that misses κ."""
     p_e = [lam_e, obj.robustness_weight, obj.energy_weight, obj.forward_weight]
     if inv.choice_nodes:
         inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
@@ -359,7 +360,7 @@ def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj
     w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e, None,
                                  f"energy λ={lam_e:g}", limit, PATIENCE, most_robust=False)
     st = record("energy", lam_e, w_e, stats, f_, dt_)
-    if not st.meets(kappa) and not deadline.solve_expired():
+    if retry and not st.meets(kappa) and not deadline.solve_expired():
         w_e, stats, f_, dt_ = _solve(prob, fill_aux(prob, inv, w, params, lam_e), p_e,
                                      PLAN_MARGIN, f"energy ρ̃ ≥ {PLAN_MARGIN:g}",
                                      limit, PATIENCE, most_robust=False)
@@ -369,13 +370,18 @@ def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj
 
 
 def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dict, problem,
-                 record) -> tuple[np.ndarray, float] | None:
+                 record, retry: bool = True) -> tuple[np.ndarray, float] | None:
     """Energy stage first (≤ 100 iterations) from ``w0`` — a neighbour's plan (a sweep) or the
-    seed's guess (``ENERGY_FIRST``): (plan, λ), None when its plan misses κ."""
+    seed's guess (``ENERGY_FIRST``): (plan, λ), None when its plan misses κ.  ``retry``: then
+    the constrained energy stage from ``w0`` too — not from a neighbour's plan, whose class
+    is the MILP seed's choice for *another* instance: when the energy stage from it misses κ,
+    the robustness schedule (which may leave that class) runs at once (a sweep instance of
+    `handover_left_tb`: the constrained stage ran 90 iterations to its limit with no feasible
+    iterate before the schedule's 133 found the plan)."""
     lam = problem.smoothing.lam
     lam_e = _energy_lambda(prob, inv, w0, params, lam)
     if _planner_smooth(prob, inv, w0, params, lam_e) < PLAN_MARGIN:
         lam_e = min(lam * LAM_FACTOR, LAM_MAX)
     w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record,
-                      100)
+                      100, retry)
     return (w_e, lam_e) if st.meets(problem.threshold) else None
