@@ -203,7 +203,8 @@ def _next_choices(problem, chain, sol, quiet: bool):
     path did not choose), then the next-best discrete choice (the MILP seed with a no-good
     cut on its choices for the conjuncts the plan violates) — at most ``NEXT_CHOICES`` and
     within the time limit; the verified plan with the larger exact robustness is kept, and
-    the record lists every try."""
+    the record lists every try.  Any seed backend with ``next_seed`` (and its
+    ``NEXT_LABEL``) takes part: a sweep's plan library gives this instance's own seed."""
     from stlc.backends.casadi_backend import KinematicGuess
     from stlc.backends.select import Chain
 
@@ -211,12 +212,13 @@ def _next_choices(problem, chain, sol, quiet: bool):
     if sol.status in ("satisfied", "infeasible") or not hasattr(seed, "next_seed"):
         return sol
     others = []
-    if seed.choices:  # the MILP chose the first path: the local guess is another class
-        others.append(("the kinematic guess", KinematicGuess()))
+    if getattr(seed, "choices", None):  # the MILP chose the first path: the local guess
+        others.append(("the kinematic guess", KinematicGuess()))  # is another class
     nxt = seed.next_seed(problem, sol.channels)
     if nxt is not None:
-        others.append(("the next-best MILP seed (its choices for the violated specs "
-                       "excluded)", nxt))
+        others.append((seed.NEXT_LABEL, nxt))
+    first = {"iterations": int(sol.solver.get("iterations", 0) or 0),
+             "solve_s": float(sol.timing.get("solve_s", 0.0))}
     tries = []
     for label, other_seed in others[:NEXT_CHOICES]:
         if sol.status == "satisfied" or deadline.solve_expired():
@@ -227,7 +229,9 @@ def _next_choices(problem, chain, sol, quiet: bool):
         other = _run_verified(problem, Chain(chain.name, [other_seed, *chain.backends[1:]],
                                              chain.forced))
         tries.append({"seed": label, "exact": other.robustness_exact,
-                      "status": str(other.status)})
+                      "status": str(other.status),
+                      "iterations": int(other.solver.get("iterations", 0) or 0),
+                      "solve_s": float(other.timing.get("solve_s", 0.0))})
         a, b = sol.robustness_exact, other.robustness_exact
         if _better(b, a):
             other.notes.append(f"planned from {label}: the MILP seed's plan had exact "
@@ -235,6 +239,7 @@ def _next_choices(problem, chain, sol, quiet: bool):
             sol = other
     if tries:
         sol.solver["chain"]["next_choices"] = tries
+        sol.solver["chain"]["first_try"] = first  # what the first seed's plan cost
     return sol
 
 

@@ -82,6 +82,18 @@ class LibrarySeed(Backend):
     def solve(self, lowered, problem):
         return self.channels
 
+    NEXT_LABEL = "this instance's own seed (the plan library's plan missed κ)"
+
+    def next_seed(self, problem, channels) -> Backend | None:
+        """The seed this instance's own chain starts from (``select``: the MILP seed of
+        the ``nlp`` chain): a neighbour's plan whose energy stage missed κ is in the class
+        the MILP chose for *another* instance, so this one is planned as its compile would
+        be (``pipeline._next_choices`` keeps the better verified plan)."""
+        from stlc.backends.select import select
+
+        seed = select(problem).backends[0]
+        return None if isinstance(seed, LibrarySeed) else seed
+
     def invert(self, raw, inverse, problem) -> Solution:
         return Solution(mission=problem.mission.name, status=Verdict.VIOLATED,
                         robustness_exact=float("nan"), robustness_smooth=float("nan"),

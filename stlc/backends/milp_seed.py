@@ -342,6 +342,7 @@ class MilpPathSeed(KinematicGuess):
     Solution is ``infeasible`` and ``run_chain`` stops there."""
 
     name = "milp seed"
+    NEXT_LABEL = "the next-best MILP seed (its choices for the violated specs excluded)"
 
     def __init__(self, quiet: bool = True, exclude: tuple = ()):
         self.quiet = quiet

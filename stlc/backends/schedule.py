@@ -25,6 +25,9 @@ inside the class the robustness stage used to find, so that stage mostly re-did 
 work.  A robustness-only ``compare`` plan is solved as the robustness stage's first solve
 would have been (from the guess, with its choices: ``_compare``) — in a forked child while
 the energy stage runs (``COMPARE_APART``), since it does not depend on the energy plan.
+A sweep's instance started from a neighbour's plan (``warm``) whose energy stage misses κ
+stops there: the pipeline plans it again from its own MILP seed
+(``library.LibrarySeed.next_seed``), as its compile would.
 """
 
 from __future__ import annotations
@@ -212,12 +215,17 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
             if ahead is not None:
                 ahead.cancel()
             raise
-        if done is not None:
-            result = RawResult(done[0], done[1], stages)
+        w_e, lam_e, met = done
+        if met:
+            result = RawResult(w_e, lam_e, stages)
             if not warm:  # (a sweep's instance has no `compare` plans)
-                _compare(prob, inv, problem, result, done[0], done[1], record, guess=w0,
+                _compare(prob, inv, problem, result, w_e, lam_e, record, guess=w0,
                          ahead=ahead()[0] if ahead is not None else None)
             return result
+        if warm:  # a neighbour's plan, in the class another instance's seed chose: not
+            # the robustness schedule from it (289 → 675 iterations on sweep instances,
+            # one ending violated) but this instance's own seed (``LibrarySeed.next_seed``)
+            return RawResult(w_e, lam_e, stages)
         if ahead is not None:  # the robustness schedule below solves those plans itself
             ahead.cancel()
     # 1. robustness: maximise ρ̃ of the planner form P_κ (margins relative to κ, in units
@@ -370,18 +378,17 @@ def _energy(prob: NlpProblem, inv: InverseData, w: np.ndarray, params: dict, obj
 
 
 def _warm_energy(prob: NlpProblem, inv: InverseData, w0: np.ndarray, params: dict, problem,
-                 record, retry: bool = True) -> tuple[np.ndarray, float] | None:
+                 record, retry: bool = True) -> tuple[np.ndarray, float, bool]:
     """Energy stage first (≤ 100 iterations) from ``w0`` — a neighbour's plan (a sweep) or the
-    seed's guess (``ENERGY_FIRST``): (plan, λ), None when its plan misses κ.  ``retry``: then
+    seed's guess (``ENERGY_FIRST``): (plan, λ, whether it meets κ).  ``retry``: then
     the constrained energy stage from ``w0`` too — not from a neighbour's plan, whose class
-    is the MILP seed's choice for *another* instance: when the energy stage from it misses κ,
-    the robustness schedule (which may leave that class) runs at once (a sweep instance of
-    `handover_left_tb`: the constrained stage ran 90 iterations to its limit with no feasible
-    iterate before the schedule's 133 found the plan)."""
+    is the MILP seed's choice for *another* instance (a sweep instance of `handover_left_tb`:
+    the constrained stage ran 90 iterations to its limit with no feasible iterate); that
+    instance is planned from its own seed instead (``solve_mission``)."""
     lam = problem.smoothing.lam
     lam_e = _energy_lambda(prob, inv, w0, params, lam)
     if _planner_smooth(prob, inv, w0, params, lam_e) < PLAN_MARGIN:
         lam_e = min(lam * LAM_FACTOR, LAM_MAX)
     w_e, st = _energy(prob, inv, w0, params, problem.objective, problem.threshold, lam_e, record,
                       100, retry)
-    return (w_e, lam_e) if st.meets(problem.threshold) else None
+    return w_e, lam_e, st.meets(problem.threshold)

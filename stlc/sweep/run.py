@@ -318,6 +318,9 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
         "nlp_builds": sum(1 for r in rows if r.get("built")) + (lost or {}).get("builds", 0),
         "preempted": (lost or {}).get("preempted", 0),
         "warm_started": sum(1 for r in rows if r.get("warm") == "plan library"),
+        # warm starts that missed κ and were planned again from the instance's own seed
+        "replanned_own_seed": sum(1 for r in rows if r.get("warm") == "plan library"
+                                  and r.get("replanned")),
         "warm_from_prediction": sum(1 for r in rows
                                     if str(r.get("seed", "")).startswith(PREDICTED)),
         "solve_s": quantiles([r["solve_s"] for r in ok]),

@@ -16,6 +16,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator
+from dataclasses import replace
 
 import numpy as np
 
@@ -152,6 +153,8 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     tree, base = _parsed(source, path)
     program, vals = overrides.checked(tree, items, checked_base=base)
     m = select_missions(path, program, mission)[0]
+    # a row has no `compare` plans: none is solved, cold (the instance's own seed) or warm
+    m = replace(m, options={k: v for k, v in m.options.items() if k != "compare"})
     problem = from_mission(program, m, values=vals)
     chain = backend_chain(problem)
     lib = None
@@ -173,10 +176,16 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     if lib is not None and sol.status == "satisfied" and seeds is None:
         lib.add(vals, sol.channels, str(values))
     st = sol.solver
+    tries = st.get("chain", {}).get("next_choices", [])
+    spent = [st["chain"]["first_try"], *tries] if tries else [
+        {"iterations": int(st.get("iterations", 0) or 0),
+         "solve_s": float(sol.timing.get("solve_s", 0.0))}]
     return {"status": str(sol.status), "robustness": float(sol.robustness_exact),
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
-            "iterations": int(st.get("iterations", 0) or 0),
-            "solve_s": float(sol.timing.get("solve_s", 0.0)),
+            # every try's (a warm start that missed κ, then the instance's own seed)
+            "iterations": sum(t["iterations"] for t in spent),
+            "solve_s": sum(t["solve_s"] for t in spent),
+            "replanned": len(tries),
             "warm": chain[0].name, "seed": seed_label, "plan_csv": trajectory_csv(sol),
             "channels": ({k: np.asarray(v, float) for k, v in sol.channels.items()}
                          if sol.status == "satisfied" else None)}
