@@ -217,8 +217,7 @@ def _next_choices(problem, chain, sol, quiet: bool):
     nxt = seed.next_seed(problem, sol.channels)
     if nxt is not None:
         others.append((seed.NEXT_LABEL, nxt))
-    first = {"iterations": int(sol.solver.get("iterations", 0) or 0),
-             "solve_s": float(sol.timing.get("solve_s", 0.0))}
+    first = solve_cost(sol)
     tries = []
     for label, other_seed in others[:NEXT_CHOICES]:
         if sol.status == "satisfied" or deadline.solve_expired():
@@ -229,18 +228,22 @@ def _next_choices(problem, chain, sol, quiet: bool):
         other = _run_verified(problem, Chain(chain.name, [other_seed, *chain.backends[1:]],
                                              chain.forced))
         tries.append({"seed": label, "exact": other.robustness_exact,
-                      "status": str(other.status),
-                      "iterations": int(other.solver.get("iterations", 0) or 0),
-                      "solve_s": float(other.timing.get("solve_s", 0.0))})
+                      "status": str(other.status), **solve_cost(other)})
         a, b = sol.robustness_exact, other.robustness_exact
         if _better(b, a):
-            other.notes.append(f"planned from {label}: the MILP seed's plan had exact "
-                               f"robustness {a:.6g}")
+            other.notes.append(f"planned from {label}: the plan from the {seed.name} had "
+                               f"exact robustness {a:.6g}")
             sol = other
     if tries:
         sol.solver["chain"]["next_choices"] = tries
         sol.solver["chain"]["first_try"] = first  # what the first seed's plan cost
     return sol
+
+
+def solve_cost(sol) -> dict:
+    """What planning ``sol`` cost: its IPOPT iterations and solve seconds."""
+    return {"iterations": int(sol.solver.get("iterations", 0) or 0),
+            "solve_s": float(sol.timing.get("solve_s", 0.0))}
 
 
 def _better(b: float, a: float) -> bool:

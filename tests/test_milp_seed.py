@@ -130,6 +130,24 @@ def test_an_impossible_mission_is_proved_before_the_nlp(tmp_path):
     assert any(d.code == "STL504" for d in sol.diagnostics)
 
 
+def test_a_start_inside_a_no_fly_box_is_proved_impossible_before_the_nlp(tmp_path):
+    # the trap's vehicle starts inside the wall: `safe` fails at t = 0 on every path.  The
+    # seed's encoding bounds ρ̂ by that start (−0.25 by hand: 0.25 m from the wall's nearer
+    # x face) below κ, so its feasibility phase finds a path *at* that bound — not a proof,
+    # but the cue to ask the relaxation for one before the NLP's λ schedule (a random
+    # handover starting in the no-fly region behind the operator: 121 s → 4.9 s, exit 3)
+    src = TRAP.replace("start { pos = (0, 0, 1) m }", "start { pos = (1.75, 0, 1) m }")
+    program, mission = _problem(src, tmp_path, "trap")
+    problem = from_mission(program, mission)
+    _, rec = milp_seed.plan(problem)
+    assert rec["bound"] == pytest.approx(-0.25) and rec["bound"] < problem.threshold
+    _, sol = pipeline.plan(program, mission, backend="nlp")
+    assert sol.status == "infeasible" and sol.conflict == ["safe"]
+    stages = sol.solver["chain"]["stages"]
+    assert [(s["backend"], s["status"]) for s in stages] == [
+        ("milp seed", "infeasible"), ("casadi/ipopt", "not_run")]  # the NLP never ran
+
+
 def test_the_next_seed_leaves_out_the_choices_of_the_violated_spec(tmp_path):
     from stlc.backends.milp_seed import MilpPathSeed, conjuncts
     from stlc.planning.fallback import hover_solution

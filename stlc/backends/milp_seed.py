@@ -218,6 +218,8 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
                          low.encoder.complete, free=not defer_free)
     rec.update({"step_s": h, "samples": coarse.n, "binaries": milp.n_binaries,
                 "build_s": low.build_s, "excluded": len(exclude)})
+    if low.top >= 0:  # the encoding's own bound on ρ̂ (a start inside a no-fly box: < κ)
+        rec["bound"] = float(milp.hi[low.top])
 
     def record(res, phases) -> tuple[dict | None, dict]:
         r = {**rec, "status": res.status, "wall_s": sum(p[2] for p in phases),
@@ -357,7 +359,10 @@ class MilpPathSeed(KinematicGuess):
         paths, rec, resume = plan(problem, exclude=self.exclude, defer_free=True,
                                   on_solve=lambda: builds.append(build_in_thread(problem)))
         proof = None
-        if rec.get("phases") and rec["phases"][0][1] == "Infeasible":
+        if rec.get("phases") and (rec["phases"][0][1] == "Infeasible"
+                                  or rec.get("bound", np.inf) < problem.threshold):
+            # no seed path reaches κ: HiGHS proved it, or the encoding's bound on ρ̂ is
+            # below κ already (its feasibility phase then finds a path at that bound)
             from stlc.backends.milp_conflict import prove_infeasible
 
             proof = prove_infeasible(problem)  # HiGHS only: beside the build, too

@@ -223,8 +223,9 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
                          ahead=ahead()[0] if ahead is not None else None)
             return result
         if warm:  # a neighbour's plan, in the class another instance's seed chose: not
-            # the robustness schedule from it (289 → 675 iterations on sweep instances,
-            # one ending violated) but this instance's own seed (``LibrarySeed.next_seed``)
+            # the robustness schedule from it (up to 675 iterations on unseen sweep
+            # instances, two ending violated) but this instance's own seed
+            # (``LibrarySeed.next_seed``)
             return RawResult(w_e, lam_e, stages)
         if ahead is not None:  # the robustness schedule below solves those plans itself
             ahead.cancel()

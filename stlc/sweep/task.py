@@ -146,7 +146,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     from stlc.backends.casadi_backend import CasadiNlp
     from stlc.backends.nlp_cache import structure_key
     from stlc.output.solution import trajectory_csv
-    from stlc.pipeline import backend_chain, plan, select_missions
+    from stlc.pipeline import backend_chain, plan, select_missions, solve_cost
     from stlc.planning.problem import from_mission
     from stlc.semantics import overrides
 
@@ -177,9 +177,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
         lib.add(vals, sol.channels, str(values))
     st = sol.solver
     tries = st.get("chain", {}).get("next_choices", [])
-    spent = [st["chain"]["first_try"], *tries] if tries else [
-        {"iterations": int(st.get("iterations", 0) or 0),
-         "solve_s": float(sol.timing.get("solve_s", 0.0))}]
+    spent = [st["chain"]["first_try"], *tries] if tries else [solve_cost(sol)]
     return {"status": str(sol.status), "robustness": float(sol.robustness_exact),
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
             # every try's (a warm start that missed κ, then the instance's own seed)
