@@ -287,3 +287,49 @@ def test_reach_avoid_benchmark_is_planned_to_its_optimum():
     assert sol.status == "satisfied" and sol.solver["return_status"] == "optimal"
     assert sol.robustness_exact == pytest.approx(0.5, abs=1e-6)
     assert sol.solver["objective"] == pytest.approx(sol.robustness_exact, abs=1e-6)
+
+
+DASH = """\
+vehicle d1 : point_mass {
+  vel_max = (2, 2, 2) m/s
+  acc_max = (1, 1, 1) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+mission dash {
+  vehicles = [d1]
+  horizon = 4 s
+  step = 0.5 s
+  threshold = 0.1
+  spec far = eventually[4, 4] (d1.pos.x >= 5 m)
+  require far
+  maximize robustness
+}
+"""
+
+
+def test_a_mission_only_a_moving_end_satisfies_is_planned_not_called_impossible(tmp_path):
+    # by hand: from rest with |a| <= 1 m/s², a plan at rest again at 4 s covers at most
+    # 4 m (accelerate 2 s, brake 2 s), so no plan *ending at rest* reaches x >= 5 m; one
+    # that may end moving covers 6 m (1 m/s² to 2 m/s by 2 s, then 2 m/s: 2 + 4 m) —
+    # ρ = 1.  The holdable end is the planner's preference, not the verdict's: the exact
+    # MILP plans without it and the proof does not call the mission impossible
+    from stlc.backends.milp_conflict import prove_infeasible
+
+    p = tmp_path / "dash.stl"
+    p.write_text(DASH, encoding="utf-8")
+    program = load(str(p)).program
+    problem = from_mission(program, program.missions["dash"])
+    assert problem.hold_end
+    assert prove_infeasible(problem) is None
+    code, sol, _ = _compile(p, tmp_path / "out", "-q")
+    assert code == 0 and sol["status"] == "satisfied" and "conflict" not in sol
+    assert sol["robustness"]["exact"] == pytest.approx(1.0, abs=1e-6)
+    assert sol["solver"]["objective"] == pytest.approx(1.0, abs=1e-6)
+    assert any("cannot hold" in n for n in sol["notes"])  # the end is noted, not hidden
+    # and with the end at rest required by hand (x >= 5 by 4 s at rest): proved impossible
+    held = DASH.replace("require far", "spec stop = always[4, 4] (d1.vel.x <= 0.05 m/s)\n"
+                        "  require far and stop")
+    p.write_text(held, encoding="utf-8")
+    code, sol, _ = _compile(p, tmp_path / "out2", "-q")
+    assert code == 3 and sol["status"] == "infeasible"
+    assert sorted(sol["conflict"]) == ["far", "stop"]

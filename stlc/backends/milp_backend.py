@@ -17,7 +17,7 @@ its robustness equals ρ̂ to the MIP gap (1e-9) and the solver tolerances.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -135,8 +135,6 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
             states, inputs = vm.state_channels(v), vm.input_channels(v)
             bounds, x0 = vm.bounds(v), problem.start_states.get(v.name, vm.initial_state(v))
         if box:
-            from dataclasses import replace
-
             lo_, hi_ = np.array(bounds.x_lo, float), np.array(bounds.x_hi, float)
             for i, c in enumerate(states):
                 if c in box and box[c][0] <= x0[i] <= box[c][1]:
@@ -236,10 +234,38 @@ class ExactMilp(Backend):
         """Two phases on one model: a plan with ρ̂ ≥ κ first (a feasibility MILP, usually
         far faster than the optimisation; ``Infeasible`` here proves no plan reaches κ),
         then ρ̂ maximised from it as a MIP start.  Inside the invariant box a negative
-        optimum proves nothing, so then the whole problem is solved again."""
+        optimum proves nothing, so then the whole problem is solved again.  The holdable
+        end (``hold_end``, rows at the last sample) is a preference, not the verdict's:
+        when no plan ending at rest reaches κ, the problem is solved again without it and
+        the better plan kept (its end is then noted as not holdable)."""
         t0 = time.perf_counter()
         limit = self._limit(problem, low)
         self.phases = []
+        res = self._solve(low, problem, limit)
+        if problem.hold_end and not self._reaches(res, low, problem):
+            free_problem = replace(problem, hold_end=False)
+            free = build(free_problem, {"requirement": problem.requirement},
+                         box=low.box or None)
+            free.box = low.box
+            self.phases.append(("no plan at rest reaches κ: without the holdable end",
+                                "started", 0.0))
+            res2 = self._solve(free, free_problem, max(limit - (time.perf_counter() - t0), 1.0))
+            res2.wall_s += res.wall_s
+            if res2.x is not None and (res.x is None or -res2.objective > -res.objective):
+                low.milp, low.vehicles, low.top = free.milp, free.vehicles, free.top
+                return res2
+            res.wall_s = res2.wall_s
+        return res
+
+    @staticmethod
+    def _reaches(res, low: Lowered, problem: PlanningProblem) -> bool:
+        """A plan with ρ̂ ≥ κ (a mission without a requirement term: any plan)."""
+        if res.x is None:
+            return False
+        return low.top < 0 or -res.objective >= problem.threshold + KAPPA_MARGIN
+
+    def _solve(self, low: Lowered, problem: PlanningProblem, limit: float):
+        t0 = time.perf_counter()
         start = self._seed_start(low, problem, limit)
         res = self._two_phase(low, problem, limit - (time.perf_counter() - t0), start)
         if low.box and not (res.x is not None and -res.objective >= 0):
