@@ -249,7 +249,8 @@ class ExactMilp(Backend):
             free.box = low.box
             self.phases.append(("no plan at rest reaches κ: without the holdable end",
                                 "started", 0.0))
-            res2 = self._solve(free, free_problem, max(limit - (time.perf_counter() - t0), 1.0))
+            res2 = self._solve(free, free_problem, max(limit - (time.perf_counter() - t0), 1.0),
+                               only_above_kappa=True)
             res2.wall_s += res.wall_s
             if res2.x is not None and (res.x is None or -res2.objective > -res.objective):
                 low.milp, low.vehicles, low.top = free.milp, free.vehicles, free.top
@@ -264,10 +265,16 @@ class ExactMilp(Backend):
             return False
         return low.top < 0 or -res.objective >= problem.threshold + KAPPA_MARGIN
 
-    def _solve(self, low: Lowered, problem: PlanningProblem, limit: float):
+    def _solve(self, low: Lowered, problem: PlanningProblem, limit: float,
+               only_above_kappa: bool = False):
+        """``only_above_kappa``: stop when HiGHS proves no plan reaches κ (no optimisation
+        below κ: the caller keeps the plan it has)."""
         t0 = time.perf_counter()
         start = self._seed_start(low, problem, limit)
-        res = self._two_phase(low, problem, limit - (time.perf_counter() - t0), start)
+        res = self._two_phase(low, problem, limit - (time.perf_counter() - t0), start,
+                              only_above_kappa)
+        if only_above_kappa and res.x is None and res.status == "Infeasible":
+            return res
         if low.box and not (res.x is not None and -res.objective >= 0):
             full = build(problem, {"requirement": problem.requirement})
             left = limit - (time.perf_counter() - t0)
@@ -323,7 +330,8 @@ class ExactMilp(Backend):
             low.encoder.complete(x)
         return best
 
-    def _two_phase(self, low: Lowered, problem: PlanningProblem, limit: float, start=None):
+    def _two_phase(self, low: Lowered, problem: PlanningProblem, limit: float, start=None,
+                   only_above_kappa: bool = False):
         if low.top < 0:
             return Highs(low.milp, {}, time_limit=limit).solve()
         t0 = time.perf_counter()
@@ -340,6 +348,8 @@ class ExactMilp(Backend):
                 h.start(start.x)
             first = h.solve()
             self.phases.append(("feasibility", first.status, first.wall_s))
+            if only_above_kappa and first.status == "Infeasible":
+                return first
             if first.x is None and start is not None:
                 first.x = start.x
         h = Highs(low.milp, {low.top: -1.0},

@@ -267,9 +267,12 @@ def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: 
                        "predicates on other signals replaced by true")}
     sol.notes.insert(0, f"no plan exists: {what} (proved by a MILP over a relaxation that "
                      "contains every trajectory the vehicles can fly)")
+    fix = ("relax or drop one of the conflicting specs" if len(named) >= 2 else
+           f"relax {named[0]} or the mission's threshold, or check where the vehicles "
+           "start" if named else "relax the requirement or the mission's threshold")
     sol.diagnostics.append(Diagnostic(
         "STL504", f"no plan can satisfy mission `{m.name}`: {what}", m.span,
-        "relax or drop one of the conflicting specs" + ("" if minimal else
+        fix + ("" if minimal else
                                                          " (the set may not be minimal: a "
                                                          "check ran out of time)")))
     if not quiet:
