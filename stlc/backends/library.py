@@ -70,8 +70,10 @@ class LibrarySeed(Backend):
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
                                 nodes=ALL_NODES, functions=ALL_FUNCTIONS)
 
-    def __init__(self, channels: dict[str, np.ndarray], label: str, distance: float):
+    def __init__(self, channels: dict[str, np.ndarray], label: str, distance: float,
+                 own: Backend | None = None):
         self.channels, self.label, self.distance = channels, label, distance
+        self.own = own  # the seed this instance's own chain starts from (``next_seed``)
 
     def accepts(self, problem) -> list:
         return []
@@ -85,14 +87,11 @@ class LibrarySeed(Backend):
     NEXT_LABEL = "this instance's own seed (the plan library's plan missed κ)"
 
     def next_seed(self, problem, channels) -> Backend | None:
-        """The seed this instance's own chain starts from (``select``: the MILP seed of
-        the ``nlp`` chain): a neighbour's plan whose energy stage missed κ is in the class
-        the MILP chose for *another* instance, so this one is planned as its compile would
-        be (``pipeline._next_choices`` keeps the better verified plan)."""
-        from stlc.backends.select import select
-
-        seed = select(problem).backends[0]
-        return None if isinstance(seed, LibrarySeed) else seed
+        """The seed this instance's own chain starts from (``own``: the MILP seed of the
+        ``nlp`` chain): a neighbour's plan whose energy stage missed κ is in the class the
+        MILP chose for *another* instance, so this one is planned as its compile would be
+        (``pipeline._next_choices`` keeps the better verified plan)."""
+        return self.own
 
     def invert(self, raw, inverse, problem) -> Solution:
         return Solution(mission=problem.mission.name, status=Verdict.VIOLATED,

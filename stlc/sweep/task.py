@@ -170,7 +170,7 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
         near = lib.nearest(vals, _scorer(program, m, problem.grid.dt),
                            k=len(seeds) if seeds else 4) if warm else None
         if near is not None:
-            chain = [LibrarySeed(*near), chain[-1]]
+            chain = [LibrarySeed(*near, own=chain[0]), chain[-1]]
             seed_label = near[1]
     _, sol = plan(program, m, values=vals, chain=chain)
     if lib is not None and sol.status == "satisfied" and seeds is None:
