@@ -272,8 +272,7 @@ def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: 
            "start" if named else "relax the requirement or the mission's threshold")
     sol.diagnostics.append(Diagnostic(
         "STL504", f"no plan can satisfy mission `{m.name}`: {what}", m.span,
-        fix + ("" if minimal else
-                                                         " (the set may not be minimal: a "
-                                                         "check ran out of time)")))
+        fix + ("" if minimal else " (the set may not be minimal: a check ran out of "
+                                  "time)")))
     if not quiet:
         print(f"{m.name}: no plan exists — {what} ({wall:.1f} s)", file=sys.stderr)
