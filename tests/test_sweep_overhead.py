@@ -109,3 +109,31 @@ def test_first_plan_preempts_a_slow_cold_instance(tmp_path, monkeypatch):
     summary = json.loads((out / "sweep.json").read_text())
     assert summary["preempted"] == 1
     assert summary["nlp_builds"] >= 2  # the stub's "build" counts
+
+
+def test_map_threads_follow_the_environment(monkeypatch):
+    import os
+
+    from stlc.backends.derivatives import MAX_THREADS, map_threads
+
+    monkeypatch.delenv("STLC_MAP_THREADS", raising=False)
+    assert map_threads() == max(1, min(os.cpu_count() or 1, MAX_THREADS))
+    for value, want in (("1", 1), ("0", 1), ("x", max(1, min(os.cpu_count() or 1,
+                                                                MAX_THREADS)))):
+        monkeypatch.setenv("STLC_MAP_THREADS", value)
+        assert map_threads() == want
+
+
+def test_local_workers_get_their_share_of_the_cores(tmp_path):
+    # K worker processes on the machine's cores: each derivative map gets cores // K threads
+    import os
+
+    from stlc.sweep.run import _client
+
+    client, cluster = _client(2, None, str(tmp_path / "x.stl"))
+    try:
+        got = client.run(lambda: os.environ.get("STLC_MAP_THREADS"))
+        assert sorted(got.values()) == [str(max(1, (os.cpu_count() or 1) // 2))] * 2
+    finally:
+        client.close()
+        cluster.close()

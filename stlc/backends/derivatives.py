@@ -34,12 +34,21 @@ CHUNK_ROWS = 256
 MAX_THREADS = 4
 
 
+def map_threads() -> int:
+    """Threads of the derivatives' map: every core (at most ``MAX_THREADS``), or
+    ``STLC_MAP_THREADS`` — a sweep's local cluster sets it to its share of the cores (K
+    worker processes on K cores: 1), where two threads per worker only oversubscribed."""
+    cap = os.environ.get("STLC_MAP_THREADS", "")
+    return max(1, min(os.cpu_count() or 1, MAX_THREADS,
+                      int(cap) if cap.isdigit() else MAX_THREADS))
+
+
 def _map(fn: ca.Function, n: int) -> ca.Function:
     """``fn`` over n intervals, on every core: the dynamics' Hessian is ~80 % of an iteration's
     derivative evaluations (one RK4 step's Hessian is 17 k SX nodes); two threads measured
     16 → 8.6 ms per Hessian on the 2-core machine.  Numeric evaluation is thread-safe; a
     Ctrl-C delivered to one of these threads is still seen (``interrupt.run`` polls)."""
-    threads = min(os.cpu_count() or 1, MAX_THREADS)
+    threads = map_threads()
     return fn.map(n, "thread", threads) if threads > 1 else fn.map(n)
 
 
