@@ -251,11 +251,11 @@ class ExactMilp(Backend):
                                 "started", 0.0))
             res2 = self._solve(free, free_problem, max(limit - (time.perf_counter() - t0), 1.0),
                                only_above_kappa=True)
-            res2.wall_s += res.wall_s
+            wall = res.wall_s + res2.wall_s
             if res2.x is not None and (res.x is None or -res2.objective > -res.objective):
                 low.milp, low.vehicles, low.top = free.milp, free.vehicles, free.top
-                return res2
-            res.wall_s = res2.wall_s
+                res = res2
+            res.wall_s = wall
         return res
 
     @staticmethod
@@ -268,12 +268,13 @@ class ExactMilp(Backend):
     def _solve(self, low: Lowered, problem: PlanningProblem, limit: float,
                only_above_kappa: bool = False):
         """``only_above_kappa``: stop when HiGHS proves no plan reaches κ (no optimisation
-        below κ: the caller keeps the plan it has)."""
+        below κ: the caller keeps the plan it has) — inside the invariant box only for
+        κ ≥ 0, since the box keeps just the plans with ρ ≥ 0."""
         t0 = time.perf_counter()
         start = self._seed_start(low, problem, limit)
-        res = self._two_phase(low, problem, limit - (time.perf_counter() - t0), start,
-                              only_above_kappa)
-        if only_above_kappa and res.x is None and res.status == "Infeasible":
+        proof = only_above_kappa and (not low.box or problem.threshold >= 0)
+        res = self._two_phase(low, problem, limit - (time.perf_counter() - t0), start, proof)
+        if proof and res.x is None and res.status == "Infeasible":
             return res
         if low.box and not (res.x is not None and -res.objective >= 0):
             full = build(problem, {"requirement": problem.requirement})

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -182,8 +182,6 @@ def prove_infeasible(problem) -> Proof | None:
     ask for one (a plan that does not is satisfied, with a note), so the proof must not
     either — with it, stlpy's RandomMultitarget (optimum +0.274 free, +0.0961 at rest) was
     called impossible at κ = 0.1."""
-    from dataclasses import replace
-
     problem = replace(problem, hold_end=False)
     exact = exact_model(problem)
     lins = None if exact else relaxed_vehicle(problem)
