@@ -13,6 +13,7 @@ from __future__ import annotations
 def registry() -> dict[str, type]:
     from stlc.backends.backup import TakeoverBackend
     from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
+    from stlc.backends.knots import KnotNlp
     from stlc.backends.milp_backend import ExactMilp
     from stlc.backends.milp_seed import MilpPathSeed
     from stlc.backends.milp_start import CoarseStart
@@ -20,7 +21,7 @@ def registry() -> dict[str, type]:
     from stlc.backends.team_backend import MilpSeed, TeamRefine
 
     return {"milp": ExactMilp, "milp-start": CoarseStart, "kinematic": KinematicGuess,
-            "seed-milp": MilpPathSeed, "casadi": CasadiNlp,
+            "seed-milp": MilpPathSeed, "casadi": CasadiNlp, "knots": KnotNlp,
             "team-milp": MilpSeed, "team-refine": TeamRefine,
             # replanning backends, run by the simulation on an event's problem (no chain)
             "segment": SegmentBackend, "takeover": TakeoverBackend}

@@ -194,7 +194,12 @@ def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solut
             except BaseException:  # a lowering error or Ctrl-C: stop the solve apart too
                 getattr(wait, "cancel", lambda: None)()
                 raise
-        raw = wait()
+        from stlc.backends.effort import heartbeat
+
+        with heartbeat(f"{b.name} running (no verified plan yet)" if i == 0 else
+                       f"{b.name} running",  # a backend that runs apart (a seed)
+                       getattr(b, "quiet", True) or not hasattr(wait, "cancel")):
+            raw = wait()
         sol = b.invert(raw, inverse, p)
         sols.append(sol)
         if sol.status == "infeasible":

@@ -54,6 +54,7 @@ PLAN_MARGIN = 1e-3
 FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
 FIX_WINDOWS = os.environ.get("STLC_FIX_WINDOWS", "1") == "1"  # and of every ``eventually``
 FEASIBLE_DEFECT = 1e-6  # max dynamics defect of an iterate accepted as a plan
+PROGRESS_EVERY_S = 3.0  # a progress line at least this often (or every 10 iterations)
 
 
 def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") -> float:
@@ -398,6 +399,7 @@ class Progress(ca.Callback):
         self.best_exact = self.best_score = -np.inf
         self.best_it = 0
         self.t_verify, self.timed_out = 0.0, False
+        self.printed = time.perf_counter()
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -430,10 +432,14 @@ class Progress(ca.Callback):
                     self.best_score, self.best_exact = score, exact
                     self.best_x, self.best_it = np.asarray(arg[0]).ravel(), self.it
         self.t_verify += time.perf_counter() - t0
-        if not self.quiet and self.it % self.every == 0:
+        now = time.perf_counter()
+        if not self.quiet and (self.it % self.every == 0
+                               or now - self.printed >= PROGRESS_EVERY_S):
+            self.printed = now
             rho = float(self.root_fn(arg[0], self.p))
             ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"
-            ex += deadline.progress_note()
+            best = f", best verified {self.best_exact:+.4f}" if self.best_x is not None else ""
+            ex += best + deadline.progress_note()
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
                   f"smooth {rho:+.4f}  exact {ex}", file=self.stream or sys.stderr, flush=True)
         self.it += 1

@@ -49,12 +49,14 @@ judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_c
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from stlc import deadline, vehicles
+from stlc.backends import effort
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_backend import KinematicGuess
 from stlc.backends.kinematic import build_in_thread
@@ -66,7 +68,7 @@ from stlc.backends.seed_inner import inner_norms
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 
-TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
+TIME_LIMIT_S = effort.SEED_BASE_S  #: the seed's least wall budget (``effort.seed_budget``)
 ACC_WEIGHT = 1e-3  #: L1 penalty per m/s² · s of acceleration, against ρ̂ in metres
 ROUNDS = 20  #: LPs of the shortening's local search, at most (≈ 30 ms each on a handover)
 ROUND_GAIN = 0.01  #: … while each one lowers the penalty by more than this fraction
@@ -148,7 +150,7 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
     return list(f.args) if isinstance(f, ir.And) else [f]
 
 
-def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
+def plan(problem, time_limit: float | None = None, quiet: bool = True,
          exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False,
          defer_free: bool = False, on_solve=None):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
@@ -210,7 +212,10 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
             milp.row({t: 1.0, int(col): -1.0}, 0.0, np.inf)
             milp.row({t: 1.0, int(col): 1.0}, 0.0, np.inf)
             cost[t] = ACC_WEIGHT * h
-    limit = float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
+    # the budget scales with the MILP's binaries and the machine's load (``effort``)
+    limit = effort.seed_budget(milp.n_binaries) if time_limit is None else \
+        float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
+    rec["budget_s"] = limit
     t_start = time.perf_counter()
     if on_solve is not None:
         on_solve()
@@ -390,6 +395,10 @@ class MilpPathSeed(KinematicGuess):
             rec["kinematic_s"] = time.perf_counter() - t1
             if "robustness" not in rec:
                 rec["fallback"] = "kinematic guess"
+                if not self.quiet:
+                    print(f"{problem.name}: the MILP seed found no path "
+                          f"({rec.get('status')}, budget {rec.get('budget_s', 0):.1f} s); "
+                          "the seed is the local kinematic guess", file=sys.stderr, flush=True)
         return (paths, rec, proof), time.perf_counter() - t0
 
     def next_seed(self, problem, channels) -> MilpPathSeed | None:

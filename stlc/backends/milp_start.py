@@ -29,6 +29,7 @@ HiGHS keeps until its 20 s budget ends (bound 0.5).
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -41,7 +42,9 @@ from stlc.backends.milp_seed import MAX_SAMPLES, plan, seed_factor
 from stlc.planning.problem import PlanningProblem
 from stlc.planning.solution import Solution, Verdict
 
-TIME_LIMIT_S = 15.0  #: the coarse MILP's wall limit (the 60 s patrol: 8.5 s at load 5)
+#: the coarse MILP's wall limit: None scales it with its binaries and the machine's load
+#: (``effort.seed_budget``; the 60 s patrol: 8.5 s at load 5)
+TIME_LIMIT_S: float | None = None
 
 
 class CoarseStart(Backend):
@@ -49,7 +52,7 @@ class CoarseStart(Backend):
     capabilities = ExactMilp.capabilities
     STATUS_MAP = HIGHS_STATUS_MAP
 
-    def __init__(self, quiet: bool = True, time_limit: float = TIME_LIMIT_S):
+    def __init__(self, quiet: bool = True, time_limit: float | None = TIME_LIMIT_S):
         self.quiet = quiet
         self.time_limit = time_limit
 
@@ -95,6 +98,10 @@ class CoarseStart(Backend):
             ch.update({c: _pad(U, n)[j] for j, c in enumerate(vm.input_channels(v))})
         ok = bool(ch)
         status = rec.get("status")
+        if not ok and "budget_s" in rec and not self.quiet:
+            print(f"{problem.name}: the coarse MILP start found no path ({status}, budget "
+                  f"{rec['budget_s']:.1f} s); the exact MILP starts on its own",
+                  file=sys.stderr, flush=True)
         return Solution(mission=problem.mission.name, status=Verdict.VIOLATED,
                         robustness_exact=float("nan"),
                         robustness_smooth=float(rec.get("robustness", float("nan"))),

@@ -9,6 +9,8 @@ vehicle models — "linear dynamics only" —, formula nodes, functions, planned
 * ``milp``: a coarse-grid MILP start (``milp_start``) → the exact STL→MILP backend (linear
   vehicles, predicates linear in the state; integer variables decide every disjunction
   globally);
+* ``knots``: a long mission (more than ``knots.LONG_SAMPLES`` samples) planned by the
+  ``nlp`` chain on a coarse grid of knots, simulated on the mission grid (``knots``);
 * ``nlp``: MILP seed (the discrete choices of a double-integrator abstraction, chosen
   globally; ``milp_seed``) → the full-dynamics smooth-robustness NLP (anything else);
   ``kinematic`` forces the local kinematic guess as the seed instead.
@@ -28,6 +30,7 @@ from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 CHAINS: dict[str, tuple[str, ...]] = {
     "team": ("team-milp", "team-refine"),
     "milp": ("milp-start", "milp"),
+    "knots": ("knots",),
     "nlp": ("seed-milp", "casadi"),
     "kinematic": ("kinematic", "casadi"),
 }

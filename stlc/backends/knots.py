@@ -1,0 +1,207 @@
+"""Long missions planned on knots: the full NLP on a coarse grid, the plan on the mission's.
+
+Every layer of the ``nlp`` chain works per sample, so a minute-long mission at 0.1 s (601
+samples, ~21 k NLP variables for a quadrotor) spends minutes in the NLP's build, the guess
+and IPOPT.  ``KnotNlp`` plans such a mission on **knots**: the same ``nlp`` chain (MILP
+seed → full-dynamics NLP) on a copy of the problem whose grid has a step h = m·dt of at
+most ``KNOT_S`` (``knot_factor``: h divides the horizon and every bound of a temporal
+operator, so every window of the formula falls on knots).  The coarse NLP integrates each
+knot interval with RK4 sub-steps of the mission's own step (``dynamics.substeps``), its
+inputs held between knots, so the plan on the mission grid is the full model simulated
+from the start state with those inputs (``refine``): dynamically exact by construction, with
+every state and derived signal recomputed.  Size and work grow linearly with the horizon
+and are m times smaller than per sample.
+
+The refined plan is judged by the exact monitor on the mission grid (the pipeline's
+verification, as every plan).  Between knots the path can cut a corner the knots did not
+see; when the refined plan misses κ, the plan is polished on the mission grid: the full
+NLP warm-started from the refined plan (``library.warm_start``), and the better verified
+plan kept.  A coarse seed's proof of infeasibility is a proof about the knots only, so it
+is never reported: the mission is then planned by the ``nlp`` chain on its own grid, whose
+proof (``milp_conflict``) is the sound one.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from stlc import deadline, vehicles
+from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities
+from stlc.backends.casadi_nlp import STATUS_MAP
+from stlc.backends.seed_grid import seed_factor
+from stlc.diagnostics import Diagnostic
+from stlc.planning.problem import PlanningProblem
+from stlc.planning.solution import Solution
+from stlc.semantics.timegrid import TimeGrid
+from stlc.vehicles import dynamics
+
+LONG_SAMPLES = 301  #: a mission grid with more samples than this is planned on knots
+KNOT_S = 0.5  #: the knots' step, at most (s)
+
+
+def knot_factor(problem: PlanningProblem) -> int:
+    """The knots' factor m (1: none): the largest m with m·dt ≤ ``KNOT_S`` that divides the
+    horizon and every finite bound of the requirement's temporal operators, and whose RK4
+    sub-steps are the mission grid's own (sub-steps of m·dt = m × those of dt, so the
+    refined plan is the coarse NLP's own discrete model)."""
+    grid = problem.grid
+    m = seed_factor(grid, problem.requirement, max_step=KNOT_S, max_samples=1 << 30)
+    while m > 1 and dynamics.substeps(m * grid.dt) != m * dynamics.substeps(grid.dt):
+        m = next((k for k in range(m - 1, 0, -1) if grid.n_intervals % k == 0), 1)
+        m = seed_factor(grid, problem.requirement, max_step=m * grid.dt + 1e-9,
+                        max_samples=1 << 30)
+    return m
+
+
+def coarse_problem(problem: PlanningProblem, m: int) -> PlanningProblem:
+    """``problem`` on the knots (step m·dt): the same requirement, objective and κ."""
+    grid = problem.grid
+    fixed = {k: np.asarray(v)[::m] for k, v in problem.fixed_channels.items()}
+    return replace(problem, grid=TimeGrid(m * grid.dt, grid.n_intervals // m),
+                   fixed_channels=fixed, seed=None)
+
+
+def refine(problem: PlanningProblem, channels: dict[str, np.ndarray], m: int
+           ) -> tuple[dict[str, np.ndarray], float, np.ndarray]:
+    """A knot plan's channels on the mission grid: each vehicle's full model simulated from
+    its start state with the knots' inputs held for m samples (the coarse NLP's own
+    sub-steps), derived signals recomputed: (channels, energy, energy per sample)."""
+    grid = problem.grid
+    n, N, dt = grid.n, grid.n_intervals, grid.dt
+    out: dict[str, np.ndarray] = {}
+    prof = np.zeros(n)
+    for v in problem.vehicles():
+        vm = vehicles.model_of(v)
+        U = np.array([np.asarray(channels[c], float) for c in vm.input_channels(v)])
+        U = np.repeat(U[:, : N // m], m, axis=1)  # held between knots: (nu, N)
+        F = dynamics.discrete_dynamics(vm.ode(v), dt, problem.integrator,
+                                       dynamics.substeps(dt)).mapaccum("sim", N)
+        x0 = problem.start_state(v.name)
+        X = np.hstack([x0[:, None], np.asarray(F(x0, U))])  # (nx, n)
+        for i, c in enumerate(vm.state_channels(v)):
+            out[c] = X[i].copy()
+        Up = np.hstack([U, U[:, -1:]])
+        for i, c in enumerate(vm.input_channels(v)):
+            out[c] = Up[i].copy()
+        out.update(vm.derived_channels(v, X.T))
+        prof += vm.energy_profile(v, X.T, dt)
+    return out, float(prof.sum()), prof
+
+
+class KnotNlp(Backend):
+    name = "knot nlp"
+    capabilities = Capabilities(vehicle_models=frozenset({"multirotor", "point_mass"}),
+                                nodes=ALL_NODES, functions=ALL_FUNCTIONS)
+    STATUS_MAP = STATUS_MAP
+
+    def __init__(self, quiet: bool = True):
+        self.quiet = quiet
+
+    def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
+        from stlc.backends.base import unsupported
+
+        diags = unsupported(self, problem)
+        if diags:
+            return diags
+        if problem.grid.n <= LONG_SAMPLES:
+            return [Diagnostic("STL401", f"mission `{problem.name}` has {problem.grid.n} "
+                               f"samples: planned on its own grid (knots from "
+                               f"{LONG_SAMPLES + 1})", problem.mission.span)]
+        if knot_factor(problem) == 1:
+            return [Diagnostic("STL401", f"mission `{problem.name}`: no coarser grid divides "
+                               "its horizon and every bound of its temporal operators",
+                               problem.mission.span)]
+        return []
+
+    def lower(self, problem: PlanningProblem):
+        return None, None
+
+    def _say(self, problem, text: str) -> None:
+        if not self.quiet:
+            print(f"{problem.name}: {text}", file=sys.stderr, flush=True)
+
+    def solve(self, lowered, problem: PlanningProblem):
+        from stlc.backends.base import run_chain
+        from stlc.backends.casadi_backend import CasadiNlp
+        from stlc.backends.milp_seed import MilpPathSeed
+
+        t0 = time.perf_counter()
+        m = knot_factor(problem)
+        cp = coarse_problem(problem, m)
+        self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
+                  f"({cp.grid.n} knots for {problem.grid.n} samples)")
+        sol_c, sols = run_chain(cp, [MilpPathSeed(self.quiet), CasadiNlp(self.quiet)])
+        if sol_c.status == "infeasible":  # a proof about the knots only: not reported
+            self._say(problem, "the knots' seed found no path; planning on the mission "
+                      "grid instead")
+            return "grid", self._on_grid(problem), t0
+        return "knots", (m, sol_c, sols), t0
+
+    def _on_grid(self, problem):
+        from stlc.backends.base import run_chain
+        from stlc.backends.select import select
+
+        return run_chain(problem, select(problem, "nlp", self.quiet).backends)
+
+    def invert(self, raw, inverse, problem: PlanningProblem) -> Solution:
+        how, payload, t0 = raw
+        if how == "grid":
+            sol, _ = payload
+            return sol
+        m, sol_c, sols = payload
+        ch, energy, prof = refine(problem, sol_c.channels, m)
+        sol = replace(sol_c, times=problem.grid.times(), channels=ch, energy=energy,
+                      energy_profile=prof, comparisons=[], timing=dict(sol_c.timing),
+                      solver=dict(sol_c.solver), notes=list(sol_c.notes),
+                      problem_size=dict(sol_c.problem_size))
+        for c in sol_c.comparisons:  # the comparison plans on the mission grid too
+            cc, ce, cp_ = refine(problem, c.channels, m)
+            sol.comparisons.append(replace(c, channels=cc, energy=ce, energy_profile=cp_))
+        seed = sols[0].solver if sols else {}
+        sol.solver.update({"knots": {"step_s": m * problem.grid.dt, "knots": len(sol_c.times),
+                                     "samples": problem.grid.n}, "seed": seed})
+        sol.problem_size["samples"] = problem.grid.n
+        sol.problem_size["knots"] = len(sol_c.times)
+        sol.timing["knots_s"] = time.perf_counter() - t0
+        sol.notes.append(f"planned on knots every {m * problem.grid.dt:g} s (the full model "
+                         f"between them, inputs held), then simulated on the mission grid")
+        return self._polish(problem, sol)
+
+    def _polish(self, problem: PlanningProblem, sol: Solution) -> Solution:
+        """The refined plan misses κ on the mission grid: the full NLP on the mission grid
+        from it (warm start), if time is left; the better plan (exact robustness) is kept."""
+        from stlc.analysis import monitor
+
+        rho = float(monitor.robustness(problem.requirement, problem.grid.dt, sol.channels,
+                                       problem.params))
+        self._say(problem, f"knot plan on the mission grid: exact robustness {rho:+.4f}")
+        if rho >= problem.threshold or deadline.solve_expired():
+            return sol
+        from stlc.backends.base import run_chain
+        from stlc.backends.casadi_backend import CasadiNlp
+        from stlc.backends.library import LibrarySeed
+
+        self._say(problem, f"exact robustness {rho:+.4f} < κ = {problem.threshold:g}: "
+                  "polishing on the mission grid from the knot plan")
+        try:
+            fine, _ = run_chain(problem, [LibrarySeed(sol.channels, "knot plan", 0.0),
+                                          CasadiNlp(self.quiet)])
+        except deadline.TimeLimitReached:
+            deadline.caught()
+            sol.notes.append("the polish on the mission grid was stopped by the time limit")
+            return sol
+        r2 = float(monitor.robustness(problem.requirement, problem.grid.dt, fine.channels,
+                                      problem.params))
+        if r2 == r2 and r2 > rho and fine.feasible:
+            fine.notes.append(f"polished on the mission grid from a plan on knots (exact "
+                              f"robustness {rho:+.4g} before)")
+            fine.solver["knots"] = sol.solver.get("knots")
+            fine.solver["iterations"] = int(fine.solver.get("iterations", 0)) + \
+                int(sol.solver.get("iterations", 0))
+            return fine
+        sol.notes.append(f"a polish on the mission grid found no better plan ({r2:+.4g})")
+        return sol
