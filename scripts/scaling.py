@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -136,7 +137,9 @@ def _binaries(sol: dict) -> int | None:
     chain = sol["solver"].get("chain", {})
     for st in chain.get("stages", []):
         seed = st.get("seed") or {}
-        if "binaries" in seed:
+        while isinstance(seed, dict) and "binaries" not in seed and "seed" in seed:
+            seed = seed["seed"]  # a knot plan's seed record holds the MILP seed's
+        if isinstance(seed, dict) and "binaries" in seed:
             return int(seed["binaries"])
     ps = sol.get("problem_size", {})
     return ps.get("binaries")
@@ -151,9 +154,13 @@ def run(kind: str, horizon: float, limit: float) -> dict:
         cmd = [sys.executable, "-m", "stlc", "compile", str(f), "--no-risk", "-q",
                "-o", str(Path(d) / "out"), "--time-limit", f"{limit:g}"]
         t0 = time.perf_counter()
+        c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         r = subprocess.run(cmd, capture_output=True, text=True,
                            env={**os.environ, "PYTHONPATH": str(ROOT)})
         row["wall"] = time.perf_counter() - t0
+        c1 = resource.getrusage(resource.RUSAGE_CHILDREN)  # CPU of the process and its forks
+        row["cpu"] = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
+        row["load"] = os.getloadavg()[0]
         try:
             sol = json.loads((Path(d) / "out" / "solution.json").read_text())
         except OSError:
@@ -170,14 +177,15 @@ def run(kind: str, horizon: float, limit: float) -> dict:
 
 
 def table(rows: list[dict]) -> str:
-    head = ["mission", "horizon s", "samples", "binaries", "variables", "wall s",
-            "iterations", "verdict", "exact ρ", "chain"]
+    head = ["mission", "horizon s", "samples", "binaries", "variables", "wall s", "CPU s",
+            "load", "iterations", "verdict", "exact ρ", "chain"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         rho = r.get("rho")
         lines.append("| " + " | ".join(str(x) for x in [
             r["mission"], _t(r["horizon"]), r["samples"], r.get("binaries", "-"),
-            r.get("variables", "-"), f"{r['wall']:.1f}", r.get("iterations", "-"),
+            r.get("variables", "-"), f"{r['wall']:.1f}", f"{r.get('cpu', 0):.1f}",
+            f"{r.get('load', 0):.1f}", r.get("iterations", "-"),
             r["status"], "-" if rho is None else f"{rho:+.4f}", r.get("chain", "-")]) + " |")
     return "\n".join(lines)
 

@@ -14,9 +14,11 @@ and are m times smaller than per sample.
 
 The refined plan is judged by the exact monitor on the mission grid (the pipeline's
 verification, as every plan).  Between knots the path can cut a corner the knots did not
-see; when the refined plan misses κ, the plan is polished on the mission grid: the full
-NLP warm-started from the refined plan (``library.warm_start``), and the better verified
-plan kept.  A coarse seed's proof of infeasibility is a proof about the knots only, so it
+see.  When the refined plan misses κ while the knots meet it, the knots are planned again
+from their plan with κ raised by the gap seen (``TIGHTEN_ROUNDS``: an energy-optimal plan
+sits at κ on the knots and dips below it between them); if the plan still misses κ, it is
+polished on the mission grid: the full NLP warm-started from it (``library.warm_start``),
+and the better verified plan kept.  A coarse seed's proof of infeasibility is a proof about the knots only, so it
 is never reported: the mission is then planned by the ``nlp`` chain on its own grid, whose
 proof (``milp_conflict``) is the sound one.
 """
@@ -41,6 +43,8 @@ from stlc.vehicles import dynamics
 
 LONG_SAMPLES = 301  #: a mission grid with more samples than this is planned on knots
 KNOT_S = 0.5  #: the knots' step, at most (s)
+TIGHTEN_ROUNDS = 2  #: re-plans of the knots with κ raised, at most
+TIGHTEN_EXTRA = 0.02  #: … by the gap seen between knots and mission grid plus this
 
 
 def knot_factor(problem: PlanningProblem) -> int:
@@ -169,16 +173,57 @@ class KnotNlp(Backend):
         sol.timing["knots_s"] = time.perf_counter() - t0
         sol.notes.append(f"planned on knots every {m * problem.grid.dt:g} s (the full model "
                          f"between them, inputs held), then simulated on the mission grid")
-        return self._polish(problem, sol)
+        rho = _exact(problem, sol.channels)
+        self._say(problem, f"knot plan on the mission grid: exact robustness {rho:+.4f}")
+        sol, rho = self._tighten(problem, m, sol_c, sol, rho)
+        return self._polish(problem, sol, rho)
 
-    def _polish(self, problem: PlanningProblem, sol: Solution) -> Solution:
+    def _tighten(self, problem: PlanningProblem, m: int, sol_c: Solution, sol: Solution,
+                 rho: float) -> tuple[Solution, float]:
+        """The knots met κ but the mission grid does not (a corner cut between knots, a
+        speed exceeded between them): plan the knots again, from their plan, with κ raised
+        by the gap seen (``TIGHTEN_ROUNDS`` at most); the best plan on the mission grid
+        is kept."""
+        from stlc.backends.base import run_chain
+        from stlc.backends.casadi_backend import CasadiNlp
+        from stlc.backends.library import LibrarySeed
+
+        cp = coarse_problem(problem, m)
+        kappa = problem.threshold
+        for k in range(TIGHTEN_ROUNDS):
+            on_knots = _exact(cp, sol_c.channels)
+            if rho >= kappa or not on_knots >= kappa or deadline.solve_expired():
+                break
+            raised = cp.threshold + (on_knots - rho) + TIGHTEN_EXTRA
+            self._say(problem, f"the knots have exact robustness {on_knots:+.4f}, the mission "
+                      f"grid {rho:+.4f}: planning the knots again with κ = {raised:.4g}")
+            cp = replace(cp, threshold=raised)
+            try:
+                again, _ = run_chain(cp, [LibrarySeed(sol_c.channels, "knot plan", 0.0),
+                                          CasadiNlp(self.quiet)])
+            except deadline.TimeLimitReached:
+                deadline.caught()
+                break
+            ch, energy, prof = refine(problem, again.channels, m)
+            r2 = _exact(problem, ch)
+            self._say(problem, f"knot plan {k + 2} on the mission grid: exact robustness "
+                      f"{r2:+.4f}")
+            if again.feasible and r2 == r2 and r2 > rho:
+                iters = int(sol.solver.get("iterations", 0)) + \
+                    int(again.solver.get("iterations", 0))
+                sol = replace(sol, channels=ch, energy=energy, energy_profile=prof,
+                              robustness_smooth=again.robustness_smooth,
+                              solver={**sol.solver, "iterations": iters,
+                                      "stages": list(sol.solver.get("stages", []))
+                                      + list(again.solver.get("stages", []))})
+                sol.notes.append(f"the knots were planned again with κ raised to {raised:.4g} "
+                                 "(the first plan missed κ between knots)")
+                sol_c, rho = again, r2
+        return sol, rho
+
+    def _polish(self, problem: PlanningProblem, sol: Solution, rho: float) -> Solution:
         """The refined plan misses κ on the mission grid: the full NLP on the mission grid
         from it (warm start), if time is left; the better plan (exact robustness) is kept."""
-        from stlc.analysis import monitor
-
-        rho = float(monitor.robustness(problem.requirement, problem.grid.dt, sol.channels,
-                                       problem.params))
-        self._say(problem, f"knot plan on the mission grid: exact robustness {rho:+.4f}")
         if rho >= problem.threshold or deadline.solve_expired():
             return sol
         from stlc.backends.base import run_chain
@@ -194,8 +239,7 @@ class KnotNlp(Backend):
             deadline.caught()
             sol.notes.append("the polish on the mission grid was stopped by the time limit")
             return sol
-        r2 = float(monitor.robustness(problem.requirement, problem.grid.dt, fine.channels,
-                                      problem.params))
+        r2 = _exact(problem, fine.channels)
         if r2 == r2 and r2 > rho and fine.feasible:
             fine.notes.append(f"polished on the mission grid from a plan on knots (exact "
                               f"robustness {rho:+.4g} before)")
@@ -205,3 +249,11 @@ class KnotNlp(Backend):
             return fine
         sol.notes.append(f"a polish on the mission grid found no better plan ({r2:+.4g})")
         return sol
+
+
+def _exact(problem: PlanningProblem, channels: dict[str, np.ndarray]) -> float:
+    """Exact robustness of ``problem``'s requirement on ``channels`` (its own grid)."""
+    from stlc.analysis import monitor
+
+    return float(monitor.robustness(problem.requirement, problem.grid.dt,
+                                    {**problem.fixed_channels, **channels}, problem.params))
