@@ -256,7 +256,9 @@ class ExactMilp(Backend):
                 low.milp, low.vehicles, low.top = free.milp, free.vehicles, free.top
                 res = res2
             res.wall_s = wall
-        return res
+        from stlc.backends.jerk import least_jerk
+
+        return least_jerk(low, res, self.phases)  # the same ρ̂ and choices, least jerk
 
     @staticmethod
     def _reaches(res, low: Lowered, problem: PlanningProblem) -> bool:
