@@ -93,13 +93,15 @@ def test_knot_plan_is_the_full_model_on_the_mission_grid(tmp_path):
     program, mission = _load(tmp_path)
     problem = from_mission(program, mission)
     m = knots.knot_factor(problem)
-    assert m == 5  # bounds 6, 4, 2 s: the coarsest step ≤ 0.5 s dividing all is 0.5 s
+    # bounds 6, 4, 2 s: every step divides them; a multirotor's knots are ≤ 0.2 s apart
+    assert m == round(multirotor.KNOT_STEP / 0.1) == 2
     cp = knots.coarse_problem(problem, m)
     v = program.vehicles["q1"]
     vm = vehicles.model_of(v)
     rng = np.random.default_rng(1)
     Uc = rng.uniform(-2, 2, (4, cp.grid.n))  # force rates on the knots
-    Fc = dynamics.discrete_dynamics(vm.ode(v), 0.5, "rk4", dynamics.substeps(0.5))
+    h = m * 0.1
+    Fc = dynamics.discrete_dynamics(vm.ode(v), h, "rk4", dynamics.substeps(h))
     Xc = [problem.start_state("q1")]
     for j in range(cp.grid.n_intervals):  # a dynamically exact knot plan
         Xc.append(np.asarray(Fc(Xc[-1], Uc[:, j])).ravel())

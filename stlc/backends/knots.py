@@ -4,7 +4,7 @@ Every layer of the ``nlp`` chain works per sample, so a minute-long mission at 0
 samples, ~21 k NLP variables for a quadrotor) spends minutes in the NLP's build, the guess
 and IPOPT.  ``KnotNlp`` plans such a mission on **knots**: the same ``nlp`` chain (MILP
 seed → full-dynamics NLP) on a copy of the problem whose grid has a step h = m·dt of at
-most ``KNOT_S`` (``knot_factor``: h divides the horizon and every bound of a temporal
+most ``KNOT_S`` and every vehicle's ``knot_step`` (``knot_factor``: h divides the horizon and every bound of a temporal
 operator, so every window of the formula falls on knots).  The coarse NLP integrates each
 knot interval with RK4 sub-steps of the mission's own step (``dynamics.substeps``), its
 inputs held between knots, so the plan on the mission grid is the full model stepped on it
@@ -43,19 +43,22 @@ from stlc.vehicles import dynamics
 
 LONG_SAMPLES = 200  #: a mission grid with more samples than this is planned on knots (the
 #: handovers, 171 samples, keep their own grid)
-KNOT_S = 0.5  #: the knots' step, at most (s)
+KNOT_S = 0.5  #: the knots' step, at most (s; each vehicle model may ask for less)
 TIGHTEN_ROUNDS = 2  #: re-plans of the knots with κ raised, at most
 TIGHTEN_EXTRA = 0.02  #: … by the gap seen between knots and mission grid plus this,
 TIGHTEN_MAX = 0.25  #: … and by at most this
 
 
 def knot_factor(problem: PlanningProblem) -> int:
-    """The knots' factor m (1: none): the largest m with m·dt ≤ ``KNOT_S`` that divides the
+    """The knots' factor m (1: none): the largest m with m·dt ≤ ``KNOT_S`` and every
+    vehicle's ``knot_step`` that divides the
     horizon and every finite bound of the requirement's temporal operators, and whose RK4
     sub-steps are the mission grid's own (sub-steps of m·dt = m × those of dt, so the
     refined plan is the coarse NLP's own discrete model)."""
     grid = problem.grid
-    m = seed_factor(grid, problem.requirement, max_step=KNOT_S, max_samples=1 << 30)
+    step = min([KNOT_S] + [float(getattr(vehicles.model_of(v), "knot_step",
+                                         lambda _v: KNOT_S)(v)) for v in problem.vehicles()])
+    m = seed_factor(grid, problem.requirement, max_step=step, max_samples=1 << 30)
     while m > 1 and dynamics.substeps(m * grid.dt) != m * dynamics.substeps(grid.dt):
         m = next((k for k in range(m - 1, 0, -1) if grid.n_intervals % k == 0), 1)
         m = seed_factor(grid, problem.requirement, max_step=m * grid.dt + 1e-9,

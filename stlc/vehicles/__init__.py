@@ -70,6 +70,7 @@ class VehicleModel(Protocol):
     def rotor_forces(self, v) -> tuple[float, float, float] | None: ...
     def linear_model(self, v, dt: float | None = None
                      ) -> tuple[np.ndarray, np.ndarray] | None: ...
+    def knot_step(self, v) -> float: ...  # the coarsest knots a long plan may use (s)
 
 
 _REGISTRY: dict[type, VehicleModel] = {}
