@@ -7,8 +7,8 @@
   within 10 s of every visit to the gate (nested ``implies``/``eventually``) and end at home.
 
 Each horizon's ``.stl`` text is generated here (``tower_text``/``patrol_text``: the same
-geometry, the windows scaled with the horizon; at 15 s the patrol's field is scaled down so
-that it can be flown), compiled by ``stlc compile --no-risk`` in its own process with a
+geometry, the windows scaled with the horizon; below 60 s the patrol's field and at 15 s the
+tower's pad distance are scaled down so that they can be flown), compiled by ``stlc compile --no-risk`` in its own process with a
 time limit, one run at a time, and the table gives samples, binaries (the MILP's: the seed's
 or the exact backend's), NLP variables, wall time of the whole process, IPOPT iterations,
 the verdict and the exact robustness.  ``specs/long/*_60s.stl`` are the 60 s instances.
@@ -81,9 +81,9 @@ mission tower_inspection {{
 
 
 def patrol_text(horizon: float) -> str:
-    """The point-mass patrol at ``horizon`` s (the field scaled by half below 30 s, where the
-    full field cannot be flown)."""
-    s = 0.5 if horizon < 30 else 1.0  # geometry scale
+    """The point-mass patrol at ``horizon`` s (the field scaled by H/60 below 60 s, where
+    the full field cannot be flown in time)."""
+    s = min(1.0, horizon / 60)  # geometry scale: the field shrinks below 60 s
     H = horizon
 
     def b(lo, hi) -> str:
@@ -91,7 +91,7 @@ def patrol_text(horizon: float) -> str:
         hi = tuple(_t(round(s * c, 3)) if i < 2 else _t(c) for i, c in enumerate(hi))
         return f"box(({', '.join(lo)}), ({', '.join(hi)})) m"
 
-    respond = 10.0 if H >= 30 else 5.0
+    respond = max(10.0 * s, 4.0)
     back = 5.0 if H >= 30 else 3.0
     w1, w2a, w2b = round(0.42 * H, 1), round(0.5 * H, 1), round(0.83 * H, 1)
     return f"""# Patrol ({_t(H)} s): a point mass passes the gate twice, keeps out of the guard post
