@@ -151,6 +151,9 @@ class KnotNlp(Backend):
         t0 = time.perf_counter()
         m = knot_factor(problem)
         cp = coarse_problem(problem, m)
+        from stlc.planning.budget import check_nlp
+
+        check_nlp(cp, problem.mission.span)  # STL606 before anything is built
         self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
                   f"({cp.grid.n} knots for {problem.grid.n} samples)")
         sol_c, sols = run_chain(cp, [MilpPathSeed(self.quiet), CasadiNlp(self.quiet)])
@@ -161,10 +164,12 @@ class KnotNlp(Backend):
         return "knots", (m, sol_c, sols), t0
 
     def _on_grid(self, problem):
+        """The ``nlp`` chain on the mission grid: MILP seed → full NLP."""
         from stlc.backends.base import run_chain
-        from stlc.backends.select import select
+        from stlc.backends.casadi_backend import CasadiNlp
+        from stlc.backends.milp_seed import MilpPathSeed
 
-        return run_chain(problem, select(problem, "nlp", self.quiet).backends)
+        return run_chain(problem, [MilpPathSeed(self.quiet), CasadiNlp(self.quiet)])
 
     def invert(self, raw, inverse, problem: PlanningProblem) -> Solution:
         how, payload, t0 = raw
