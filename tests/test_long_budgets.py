@@ -67,7 +67,7 @@ def test_guess_limits_come_from_the_declaration(tmp_path):
     assert np.allclose(vel, multirotor.GUESS_VEL_SHARE * np.array([3, 3, 1]))
     # by hand: 4 rotors × 9 N = 36 N against 1.4 kg × 9.81; tilt limited to 60°:
     # horizontal g·tan 60° = 16.99, climbing 36/1.4 − 9.81 = 15.90 m/s²
-    a = multirotor.GUESS_ACC_SHARE * (36 / 1.4 - 9.81)
+    a = min(multirotor.GUESS_ACC_SHARE * (36 / 1.4 - 9.81), multirotor.GUESS_ACC)
     assert acc == pytest.approx(np.full(3, a), abs=2e-3)
     # the declared top speed bounds the NLP's velocity too
     b = vehicles.model_of(v).envelope(v, vehicles.model_of(v).bounds(v))
@@ -81,8 +81,8 @@ def test_a_weak_multirotor_guesses_gentler_acceleration(tmp_path):
     tw = 4 * 4.4 / (1.4 * 9.81)
     horizontal = 9.81 * math.tan(math.acos(1 / tw))
     climb = 4 * 4.4 / 1.4 - 9.81
-    assert acc[0] == pytest.approx(multirotor.GUESS_ACC_SHARE * min(horizontal, climb),
-                                   abs=2e-3)
+    assert acc[0] == pytest.approx(min(multirotor.GUESS_ACC_SHARE * min(horizontal, climb),
+                                       multirotor.GUESS_ACC), abs=2e-3)
     assert acc[0] < 0.5
 
 

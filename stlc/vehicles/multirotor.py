@@ -21,9 +21,11 @@ POS, ATT, VEL, RATE, FORCE = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 #: one that declares none at ``GUESS_VEL`` (m/s per axis, 0.3 of the envelope's speed)
 GUESS_VEL_SHARE = 0.8
 GUESS_VEL = 1.5
-#: … and accelerates at this share of what its rotors give (``thrust_accelerations``): the
-#: handover's hexarotor 0.12 × 17.0 = 2.04 m/s², a vehicle with thrust/weight 1.3 0.35 m/s²
+#: … and accelerates at this share of what its rotors give (``thrust_accelerations``), at
+#: most ``GUESS_ACC``: the handover's hexarotor min(0.12 × 17.0, 2) = 2 m/s² (its plans as
+#: before), a quadrotor with thrust/weight 2.6 1.91 m/s², with thrust/weight 1.3 0.35 m/s²
 GUESS_ACC_SHARE = 0.12
+GUESS_ACC = 2.0
 KNOT_STEP = 0.2  #: s, a long plan's knots at most this far apart (``knot_step``)
 #: flight envelope added to a multirotor's own bounds by the planners, so that IPOPT cannot
 #: wander into the Euler singularity or take huge input steps: |roll|, |pitch| <= 60 deg,
@@ -116,12 +118,14 @@ class MultirotorModel:
     def kinematic_limits(self, v: Multirotor) -> tuple[np.ndarray, np.ndarray]:
         """Per-axis speed and acceleration of the kinematic guess, from the declaration:
         a share of ``vel_max`` (or ``GUESS_VEL``, within the envelope) and of the smaller of
-        the horizontal and the climbing acceleration the rotors give."""
+        the horizontal and the climbing acceleration the rotors give (at most
+        ``GUESS_ACC``)."""
         vel = np.full(3, GUESS_VEL) if v.vel_max is None else \
             GUESS_VEL_SHARE * np.asarray(v.vel_max, float)
         vel = np.minimum(vel, ENVELOPE_VEL)
         a_h, a_up = thrust_accelerations(v)
-        return vel, np.full(3, GUESS_ACC_SHARE * max(min(a_h, a_up), 0.0) + 1e-3)
+        acc = min(GUESS_ACC_SHARE * max(min(a_h, a_up), 0.0), GUESS_ACC)
+        return vel, np.full(3, max(acc, 1e-3))
 
     def guess(self, v: Multirotor, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float,
               needed=None) -> tuple[np.ndarray, np.ndarray]:
