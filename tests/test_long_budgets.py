@@ -126,3 +126,18 @@ def test_long_missions_take_the_knot_chain(tmp_path):
     assert select(from_mission(program, mission)).name == "nlp"  # 61 samples
     program, mission = _load(tmp_path, horizon=45, last=40)
     assert select(from_mission(program, mission)).name == "knots"  # 451 samples
+
+
+def test_long_specs_check_and_pick_their_chains():
+    """``specs/long``: the quadrotor inspection takes the knot chain, the point-mass patrol
+    the exact MILP's."""
+    from pathlib import Path
+
+    from stlc.backends.select import select
+
+    root = Path(__file__).resolve().parent.parent / "specs" / "long"
+    want = {"tower_inspection_60s.stl": "knots", "patrol_60s.stl": "milp"}
+    for name, chain in want.items():
+        program = pipeline.load(str(root / name)).program
+        (mission,) = program.missions.values()
+        assert select(from_mission(program, mission)).name == chain
