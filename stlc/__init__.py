@@ -2,7 +2,8 @@
 
 The Python API (``stlc.api``, loaded on first use so that ``import stlc`` stays cheap):
 ``stlc.load(path)``, ``stlc.loads(text)``, ``stlc.compile(program, mission)``,
-``stlc.monitor(program, trace)`` and ``stlc.StlError``.
+``stlc.monitor(program, trace)``, ``stlc.simulate``, ``stlc.sweep``, ``stlc.risk`` and
+``stlc.StlError`` (see docs/python.md).
 """
 
 import os as _os
@@ -16,7 +17,8 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 __version__ = "0.1.0"
 
-_API = ("load", "loads", "compile", "monitor", "StlError", "Plan", "with_constants")
+_API = ("load", "loads", "compile", "monitor", "StlError", "Plan", "with_constants",
+        "simulate", "sweep", "risk", "Simulation", "Track", "SweepTable")
 __all__ = list(_API)
 
 

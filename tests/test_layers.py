@@ -18,10 +18,12 @@ The units, lowest first (``LAYERS``)::
     output     writers: solution.json, CSVs, the HTML report, the output directory
     pipeline   orders the passes
     simulation ``stlc simulate``: the compile, then the flight loops of ``replan``
-    api        the Python API (``stlc.load``, ``stlc.compile``, ...; the package's
-               ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     tools      language tools: fmt, lsp, explain
     sweep      ``stlc sweep`` on Dask (a client and its workers' tasks)
+    results    what the Python API hands out (``Plan``, ``Simulation``, sweep tables) and
+               the commands it runs beyond ``compile`` (simulate, sweep, risk)
+    api        the Python API (``stlc.load``, ``stlc.compile``, ...; the package's
+               ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     bench      benchmarks
     cli        command line
     fuzz, __main__
@@ -50,9 +52,10 @@ LAYERS: list[set[str]] = [
     {"output"},
     {"pipeline"},
     {"simulation"},
-    {"api"},
     {"tools"},
     {"sweep"},
+    {"results"},
+    {"api"},
     {"bench"},
     {"cli"},
     {"fuzz", "__main__"},
