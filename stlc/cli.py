@@ -24,7 +24,7 @@ import threading
 import time
 import traceback
 
-from stlc.diagnostics import StlcError, render_all, to_json
+from stlc.diagnostics import StlcError, count_text, render_all, to_json
 from stlc.exitcodes import (EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
                             EXIT_OK, EXIT_UNSAT)
 from stlc.limits import source_text
@@ -292,10 +292,7 @@ def _sources(diags) -> dict[str, str]:
 def _print_diags(e: StlcError, sources: dict[str, str] | None) -> None:
     srcs = sources if sources is not None else _sources(e.diagnostics)
     print(render_all(e.diagnostics, srcs), file=sys.stderr)
-    n = sum(1 for d in e.diagnostics if d.severity == "error")
-    w = len(e.diagnostics) - n
-    print(f"stlc: {n} error{'s' if n != 1 else ''}" if n or not w else
-          f"stlc: {w} warning{'s' if w != 1 else ''}", file=sys.stderr)
+    print(f"stlc: {count_text(e.diagnostics)}", file=sys.stderr)
 
 
 def cmd_check(args) -> int:

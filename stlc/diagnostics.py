@@ -341,5 +341,13 @@ def emit_warnings(warnings: list[Diagnostic], deny: bool,
             except OSError:
                 pass
     print(render_all(warnings, sources), file=sys.stderr)
-    n = len(warnings)
-    print(f"stlc: {n} warning{'s' if n != 1 else ''}", file=sys.stderr)
+    print(f"stlc: {count_text(warnings)}", file=sys.stderr)
+
+
+def count_text(diags: list[Diagnostic]) -> str:
+    """``1 error, 2 warnings``: the diagnostics counted as they are shown (by severity)."""
+    n = sum(1 for d in diags if d.severity == "error")
+    w = len(diags) - n
+    parts = [f"{k} {word}{'s' if k != 1 else ''}" for k, word in ((n, "error"), (w, "warning"))
+             if k]
+    return ", ".join(parts) or "0 errors"

@@ -168,6 +168,7 @@ def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
 
         explain_infeasible(problem, sol, quiet=quiet)
     time_limited(sol)
+    sol.smoothing.setdefault("threshold", problem.threshold)  # κ, beside every verdict
     sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
 

@@ -41,6 +41,7 @@ from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
 from stlc.vehicles import dynamics
 from stlc.vehicles.dynamics import substeps
+from stlc.planning import words
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir, model
 from stlc.semantics.timegrid import TimeGrid
@@ -432,10 +433,10 @@ class Progress(ca.Callback):
         self.t_verify += time.perf_counter() - t0
         if not self.quiet and self.it % self.every == 0:
             rho = float(self.root_fn(arg[0], self.p))
-            ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"
-            ex += deadline.progress_note()
+            ex = words.iterate_exact(exact) + deadline.progress_note()
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
-                  f"smooth {rho:+.4f}  exact {ex}", file=self.stream or sys.stderr, flush=True)
+                  f"planner ρ̃ {words.number(rho)}  exact ρ {ex}",
+                  file=self.stream or sys.stderr, flush=True)
         self.it += 1
         stagnant = self.best_exact >= self.kappa and self.it - self.best_it > self.patience
         self.timed_out = deadline.solve_expired()  # the run's time limit (stlc.deadline)

@@ -15,6 +15,7 @@ import os
 import sys
 
 from stlc.output.solution import solution_json, trajectory_csv
+from stlc.planning import words
 from stlc.planning.solution import Solution
 from stlc.semantics import model
 
@@ -63,12 +64,14 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
 
 def summary(sol: Solution, outdir: str) -> None:
+    """The verdict line (exact ρ against κ), then, without a satisfying plan, what fails and
+    whether impossibility was proved — each said once."""
     energy = f"{sol.energy:.1f} J" if sol.energy == sol.energy else "not computed"
     if len(sol.energy_by_vehicle) > 1:
         energy += " (" + ", ".join(f"{k} {e:.1f} J" for k, e in sol.energy_by_vehicle.items()) + ")"
-    print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
-          f"smooth {sol.robustness_smooth:+.4f}  energy {energy}  "
-          f"→ {outdir}/report.html")
+    kappa = float(sol.smoothing.get("threshold", 0.0) or 0.0)
+    print(f"{sol.mission}: {words.verdict_line(sol.status, sol.robustness_exact, kappa)}  "
+          f"energy {energy}  → {outdir}/report.html")
     if sol.status == "infeasible":
         for d in sol.diagnostics:
             if d.code == "STL504":
@@ -85,11 +88,13 @@ def summary(sol: Solution, outdir: str) -> None:
                 print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at}{by}"
                       f"{pred}", file=sys.stderr)
             else:
-                kappa = sol.smoothing.get("threshold", 0.0)
                 print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
                       f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
                       + (f": {s.binding_predicate}" if s.binding_predicate else ""),
                       file=sys.stderr)
+        note = words.impossibility_note(sol.solver.get("infeasibility"))  # type: ignore[arg-type]
+        if note:
+            print(f"  note: {note}", file=sys.stderr)
 
 
 def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,

@@ -25,11 +25,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from stlc.planning import words
 from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Objective, Program
 from stlc.vehicles import model_of
 
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
+from .flags import flags
 from .predicates import readable
 from .replan_view import replan
 from .risk_view import risk
@@ -40,7 +42,7 @@ from .team_view import team
 STATUS_LABELS = {"satisfied": "Satisfied", "violated": "Violated",
                  "solver_failed": "Solver failed", "infeasible": "No plan exists",
                  "stopped": "Stopped (time limit)"}
-STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "smooth ρ̃", "exact": "exact ρ"}
+STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "planner ρ̃", "exact": "exact ρ"}
 #: stage columns holding a robustness (shown with a sign)
 SIGNED_STAGE_KEYS = ("smooth", "exact")
 TIMING_ORDER = ("parse_s", "check_s", "build_s", "guess_s", "solve_s", "risk_s", "total_s")
@@ -169,6 +171,9 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "robustness_smooth": num(sol.robustness_smooth),
         "robustness_smooth_text": fmt(sol.robustness_smooth, signed=True),
         "threshold_text": fmt(mission.threshold),
+        "verdict_text": words.verdict_line(sol.status, sol.robustness_exact, mission.threshold),
+        "impossibility_note": words.impossibility_note(sol.solver.get("infeasibility"))  # type: ignore
+        if sol.status not in ("satisfied", "infeasible") else "",
         "energy": num(sol.energy),
         "energy_text": energy_text,
         "vehicles": [{"name": v, "kind": getattr(program.vehicles.get(v), "kind", "?")}
@@ -252,7 +257,7 @@ def _spec_rows(program: Program, mission: Mission, sol: Solution,
     return rows
 
 
-def _banner(sol: Solution, rows: list[dict]) -> dict | None:
+def _banner(sol: Solution, rows: list[dict], kappa: float) -> dict | None:
     if sol.status == "satisfied":
         return None
     failing = [r for r in rows if not r["satisfied"]]
@@ -261,9 +266,10 @@ def _banner(sol: Solution, rows: list[dict]) -> dict | None:
     if sol.status == "infeasible":
         conflict = ", ".join(f"`{c}`" for c in sol.conflict)
         return {"status": sol.status, "title": "No plan exists", "spec": None,
-                "lead": f"No plan can satisfy this mission: proved infeasible (a MILP over a "
-                        f"relaxation containing every trajectory the vehicles can fly); the "
-                        f"conflicting specs: {conflict}. The plan below is the best attempt."}
+                "lead": f"No plan can reach κ = {fmt(kappa)}: proved by a MILP over a "
+                        f"relaxation containing every trajectory the vehicles can fly; the "
+                        f"conflicting specs: {conflict}. The plan below is the best attempt "
+                        f"(exact robustness ρ = {fmt(sol.robustness_exact, signed=True)})."}
     if sol.status == "solver_failed":
         title = "Solver failed"
         lead = (f"{sol.solver.get('name', 'The solver')} stopped with return status "
@@ -277,8 +283,9 @@ def _banner(sol: Solution, rows: list[dict]) -> dict | None:
                 f"(exact robustness {fmt(sol.robustness_exact, signed=True)}).")
     else:
         title = "Mission violated"
-        lead = (f"No satisfying plan was found: exact robustness "
-                f"{fmt(sol.robustness_exact, signed=True)} < 0.")
+        lead = (f"No satisfying plan was found: exact robustness ρ = "
+                f"{fmt(sol.robustness_exact, signed=True)} < κ = {fmt(kappa)}; "
+                f"{words.impossibility_note(sol.solver.get('infeasibility'))}.")
     out = {"status": sol.status, "title": title, "lead": lead, "spec": None}
     if worst is not None and not worst["satisfied"]:
         out["spec"] = {k: worst[k] for k in ("name", "robustness_text", "tightest_text",
@@ -343,13 +350,14 @@ def build_view(program: Program, mission: Mission, solution: Solution,
                for r in rows if not r["satisfied"] and r["tightest_time"] is not None]
     en = energy(program, mission, solution)
     summary = _summary(program, mission, solution, en["total_text"])
+    summary["flags"] = flags(program, mission, solution)
     held = sum(r["satisfied"] for r in rows)
     summary["specs_text"] = (f"{held} of {len(rows)} specs hold" if rows
                              else f"κ = {summary['threshold_text']}")
     return {
         "title": f"{summary['mission']} — stlc mission report",
         "summary": summary,
-        "banner": _banner(solution, rows),
+        "banner": _banner(solution, rows, mission.threshold),
         "specs": rows,
         "scene": scene(program, mission, solution),
         "signals": signals(program, mission, solution, wins, rows, markers),
