@@ -293,7 +293,37 @@ def _syntax_diag(e: UnexpectedInput, file: str, text: str) -> Diagnostic:
             "in parentheses or end the line with an operator"
     else:
         msg = f"unexpected {what}"
+    typo = _keyword_typo(text, line, col, tok)
+    if typo:
+        help_ = typo
     return Diagnostic("STL002", msg, span, help_)
+
+
+#: the language's keywords a misspelling may have meant (operators and mission clauses)
+KEYWORDS = ("always", "eventually", "until", "next", "forall", "exists", "implies", "and",
+            "or", "not", "require", "minimize", "maximize", "signal")
+
+
+def _keyword_typo(text: str, line: int, col: int, tok: Token | None) -> str | None:
+    """``eventualy[0, 5] …`` fails at its ``[``: the name just before the unexpected token
+    (or the token itself) close to a keyword → "did you mean `eventually`?"."""
+    import difflib
+    import re
+
+    lines = text.splitlines()
+    if not 1 <= line <= len(lines):
+        return None
+    before = re.search(r"([A-Za-z_]\w*)\s*$", lines[line - 1][:max(col - 1, 0)])
+    words = [str(tok)] if tok is not None and tok.type == "NAME" else []
+    if before:
+        words.insert(0, before.group(1))
+    for w in words:
+        if w in KEYWORDS:
+            continue
+        near = difflib.get_close_matches(w.lower(), KEYWORDS, n=1, cutoff=0.75)
+        if near:
+            return f"`{w}` is not a keyword: did you mean `{near[0]}`?"
+    return None
 
 
 def _eof_diag(file: str, text: str, expected: str | None) -> Diagnostic:

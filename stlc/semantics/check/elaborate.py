@@ -18,7 +18,7 @@ import numpy as np
 from stlc.diagnostics import Span, did_you_mean
 from stlc.frontend import ast
 from stlc.semantics import ir, model
-from stlc.semantics.check import units
+from stlc.semantics.check import hints, units
 from stlc.semantics.check.context import Context, Scope
 from stlc.semantics.check.values import (
     ERROR,
@@ -170,6 +170,7 @@ class ExpressionElaborator(Context):
             hint = (f"`{head}` is bound by the quantifier at line {q.line}, whose body ended "
                     "before this operator (its body is a prefix-level formula): parenthesise "
                     "the body, e.g. `forall d in team: (a and b)`") if q is not None else None
+            hint = hint or hints.unknown_name(head, scope.get("team") is not None)
             return self.err("STL101", f"unknown name `{head}`", _head_span(n),
                             hint or self.human_region_hint(head) or did_you_mean(head, cands))
         for i, part in enumerate(n.parts[1:], start=1):
@@ -310,7 +311,7 @@ class ExpressionElaborator(Context):
         fn = self.functions.get(n.fn)
         if fn is None:
             return self.err("STL107", f"unknown function `{n.fn}`", _head_span_call(n),
-                            did_you_mean(n.fn, self.functions) or
+                            hints.unknown_function(n.fn) or did_you_mean(n.fn, self.functions) or
                             "functions: " + ", ".join(sorted(self.functions)))
         return fn(self, n, scope)
 

@@ -93,8 +93,10 @@
     });
     s.trajectories.forEach(function (tr, n) {
       /* a team: one colour per drone along its path, time on the dots */
+      /* the legend entry is the start marker (plain colours): a legend draws a trace's line
+         with one colour, and a line coloured by time would give plotly an array there */
       traces.push({ type: "scatter3d", mode: "lines+markers", x: tr.x, y: tr.y, z: tr.z,
-                    name: txt(tr.vehicle), customdata: tr.t, showlegend: true, legendgroup: "v-" + tr.vehicle,
+                    name: txt(tr.vehicle), customdata: tr.t, showlegend: false, legendgroup: "v-" + tr.vehicle,
                     line: s.per_drone ? { color: tr.color, width: 5 }
                                       : { color: tr.t, colorscale: "Viridis", width: 6 },
                     marker: { size: s.per_drone ? 1.5 : 2.5, color: tr.t, colorscale: "Viridis", showscale: n === 0,
@@ -103,10 +105,11 @@
                                           yanchor: "top" } },
                     hovertemplate: txt(tr.vehicle) + "<br>t = %{customdata} s<br>(%{x}, %{y}, %{z})<extra></extra>" });
       traces.push({ type: "scatter3d", mode: "markers+text", x: [tr.x[0]], y: [tr.y[0]], z: [tr.z[0]],
-                    name: txt(tr.vehicle) + " start", showlegend: false, text: [txt(tr.vehicle)],
+                    name: txt(tr.vehicle), showlegend: true, text: [txt(tr.vehicle)],
                     legendgroup: "v-" + tr.vehicle, textposition: "bottom center",
                     hovertemplate: txt(tr.vehicle) + " start<extra></extra>",
-                    marker: { size: 5, color: "#fff", line: { color: "#111", width: 2 }, symbol: "circle" } });
+                    marker: { size: 5, color: s.per_drone ? tr.color : "#fff", line: { color: "#111", width: 2 },
+                              symbol: "circle" } });
     });
     var ax = function (t) { return { title: { text: t }, backgroundcolor: "#f7f9fb", showbackground: true,
                                      gridcolor: "#dde2e8", zerolinecolor: "#b8c0cc" }; };
