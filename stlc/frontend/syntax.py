@@ -18,6 +18,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from stlc.diagnostics import Diagnostic, Span, StlcError, normalize_newlines, source_lines
 from stlc.frontend import ast
 from stlc.frontend.postlex import MAX_DEPTH, DepthError, PostLex
+from stlc.frontend.typos import keyword_typo
 
 MAX_TREE_DEPTH = 200  # parse-tree nesting (`not not …`, `a ^ b ^ …`, long `+` chains)
 MAX_LINE = 10_000  # characters per line
@@ -293,26 +294,13 @@ def _syntax_diag(e: UnexpectedInput, file: str, text: str) -> Diagnostic:
             "in parentheses or end the line with an operator"
     else:
         msg = f"unexpected {what}"
-    typo = _keyword_typo(text, line, col, tok)
+    typo = keyword_typo(text, line, col,
+                        str(tok) if tok is not None and tok.type == "NAME" else None)
     if typo:
         help_ = typo
     return Diagnostic("STL002", msg, span, help_)
 
 
-#: the language's keywords a misspelling may have meant (operators and mission clauses)
-KEYWORDS = ("always", "eventually", "until", "next", "forall", "exists", "implies", "and",
-            "or", "not", "require", "minimize", "maximize", "signal")
-
-
-def _keyword_typo(text: str, line: int, col: int, tok: Token | None) -> str | None:
-    """``eventualy[0, 5] …`` fails at its ``[``: the name just before the unexpected token
-    (or the token itself) close to a keyword → "did you mean `eventually`?"."""
-    import difflib
-    import re
-
-    lines = text.splitlines()
-    if not 1 <= line <= len(lines):
-        return None
     before = re.search(r"([A-Za-z_]\w*)\s*$", lines[line - 1][:max(col - 1, 0)])
     words = [str(tok)] if tok is not None and tok.type == "NAME" else []
     if before:
