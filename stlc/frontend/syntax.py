@@ -301,19 +301,6 @@ def _syntax_diag(e: UnexpectedInput, file: str, text: str) -> Diagnostic:
     return Diagnostic("STL002", msg, span, help_)
 
 
-    before = re.search(r"([A-Za-z_]\w*)\s*$", lines[line - 1][:max(col - 1, 0)])
-    words = [str(tok)] if tok is not None and tok.type == "NAME" else []
-    if before:
-        words.insert(0, before.group(1))
-    for w in words:
-        if w in KEYWORDS:
-            continue
-        near = difflib.get_close_matches(w.lower(), KEYWORDS, n=1, cutoff=0.75)
-        if near:
-            return f"`{w}` is not a keyword: did you mean `{near[0]}`?"
-    return None
-
-
 def _eof_diag(file: str, text: str, expected: str | None) -> Diagnostic:
     """The file ends inside a member: point just after its last token (a line that exists),
     and name the bracket or brace that is still open."""

@@ -17,3 +17,14 @@ def keyword_typo(text: str, line: int, col: int, name: str | None) -> str | None
     lines = text.splitlines()
     if not 1 <= line <= len(lines):
         return None
+    before = re.search(r"([A-Za-z_]\w*)\s*$", lines[line - 1][:max(col - 1, 0)])
+    words = [name] if name else []
+    if before:
+        words.insert(0, before.group(1))
+    for w in words:
+        if w in KEYWORDS:
+            continue
+        near = difflib.get_close_matches(w.lower(), KEYWORDS, n=1, cutoff=0.75)
+        if near:
+            return f"`{w}` is not a keyword: did you mean `{near[0]}`?"
+    return None
