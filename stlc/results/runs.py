@@ -160,7 +160,7 @@ def _table(axes, rows: list[dict]):
     for r in sorted(rows, key=lambda r: r["instance"]):
         rec = {"instance": r["instance"]}
         for a in axes:
-            rec[a.name] = r["values"][a.name] / a.scale
+            rec[a.name] = a.shown(r["values"][a.name])
         rec.update(status=r["status"], robustness=float(r["robustness"]),
                    **{f"spec.{k}": float(v) for k, v in sorted(r["specs"].items())},
                    iterations=r["iterations"], solve_s=r["solve_s"], total_s=r["total_s"],

@@ -30,8 +30,9 @@ class Axis:
         return f"{x!r} {self.unit}" if self.unit else repr(x)
 
     def shown(self, si: float) -> float:
-        """An SI value of this axis in the unit it was given in (degrees stay degrees)."""
-        return si / self.scale
+        """An SI value of this axis in the unit it was given in (degrees stay degrees),
+        to 12 significant digits (the round trip through SI is not exact)."""
+        return float(f"{si / self.scale:.12g}")
 
     @property
     def label(self) -> str:
