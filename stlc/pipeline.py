@@ -168,7 +168,6 @@ def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
 
         explain_infeasible(problem, sol, quiet=quiet)
     time_limited(sol)
-    sol.smoothing.setdefault("threshold", problem.threshold)  # κ, beside every verdict
     sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
 
@@ -378,7 +377,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                 assess_risk(program, m, sol, problem)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
-        found = list(sol.diagnostics)  # the plan's own warnings (STLW02)
+        # the plan's own warnings (STLW02); its errors (STL504) are in the summary
+        found = [d for d in sol.diagnostics if d.severity == "warning"]
         sol.diagnostics[:0] = loaded.warnings  # the report lists the file's too
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":

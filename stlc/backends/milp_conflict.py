@@ -233,10 +233,11 @@ def prove_infeasible(problem, why: list | None = None) -> Proof | None:
     verdict = ck.infeasible([REQUIRE], min(SOLVE_LIMIT_S, left()))
     if verdict is not True:
         ignored = _ignored(problem, keep)
+        model = "the vehicles' linear model" if exact else "a relaxation of the vehicles"
         say((f"the check ran out of time ({time.perf_counter() - t0:.1f} s)" if verdict is None
-             else "a plan reaching κ exists on the relaxation it was checked on")
-            + ("" if exact or not ignored else
-               "; that relaxation ignores " + ", ".join(f"`{x}`" for x in ignored[:3])
+             else f"it was checked on {model}, where a plan reaching κ exists")
+            + ("" if not ignored else
+               "; that check ignores " + ", ".join(f"`{x}`" for x in ignored[:3])
                + (f" and {len(ignored) - 3} more" if len(ignored) > 3 else "")
                + " (not linear in position and velocity), which may be what cannot hold"))
         return None

@@ -75,7 +75,8 @@ def summary(sol: Solution, outdir: str) -> None:
     if sol.status == "infeasible":
         for d in sol.diagnostics:
             if d.code == "STL504":
-                print(f"  error[STL504]: {d.message}", file=sys.stderr)
+                print(f"  error[STL504]: {d.message}"
+                      + (f"\n  = help: {d.help}" if d.help else ""), file=sys.stderr)
     elif sol.status != "satisfied":
         worst = min(sol.specs.items(), key=lambda kv: kv[1].robustness, default=None)
         if worst is not None:
@@ -85,16 +86,16 @@ def summary(sol: Solution, outdir: str) -> None:
                 by = (f" by {-s.robustness:.4f}" if math.isfinite(s.robustness) else
                       " whatever the plan (no predicate can make it hold)")
                 pred = f": {s.binding_predicate}" if s.binding_predicate else ""
-                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at}{by}"
-                      f"{pred}", file=sys.stderr)
+                print(f"  error[STL501]: {sol.mission}: spec `{name}` (line {s.line}) is "
+                      f"violated{at}{by}{pred}", file=sys.stderr)
             else:
-                print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
-                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
+                print(f"  error[STL501]: {sol.mission}: spec `{name}` (line {s.line}) holds "
+                      f"with margin {s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
                       + (f": {s.binding_predicate}" if s.binding_predicate else ""),
                       file=sys.stderr)
         note = words.impossibility_note(sol.solver.get("infeasibility"))  # type: ignore[arg-type]
         if note:
-            print(f"  note: {note}", file=sys.stderr)
+            print(f"  note: {sol.mission}: {note}", file=sys.stderr)
 
 
 def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,

@@ -136,6 +136,7 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     from stlc.planning.holdable import end_state, flag
 
     sol = judge(problem, sol).apply(sol)
+    sol.smoothing.setdefault("threshold", problem.threshold)  # κ, named beside every verdict
     sol.end_state = end_state(problem.vehicles(), sol.channels)
     plan_energy(problem, sol)
     sol.notes.extend(flag(problem.hold_end, sol.end_state))
