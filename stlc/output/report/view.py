@@ -172,8 +172,6 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "robustness_smooth_text": fmt(sol.robustness_smooth, signed=True),
         "threshold_text": fmt(mission.threshold),
         "verdict_text": words.verdict_line(sol.status, sol.robustness_exact, mission.threshold),
-        "impossibility_note": words.impossibility_note(sol.solver.get("infeasibility"))  # type: ignore
-        if sol.status not in ("satisfied", "infeasible") else "",
         "energy": num(sol.energy),
         "energy_text": energy_text,
         "vehicles": [{"name": v, "kind": getattr(program.vehicles.get(v), "kind", "?")}
@@ -275,12 +273,13 @@ def _banner(sol: Solution, rows: list[dict], kappa: float) -> dict | None:
         lead = (f"{sol.solver.get('name', 'The solver')} stopped with return status "
                 f"“{sol.solver.get('return_status', 'unknown')}” after "
                 f"{sol.solver.get('iterations', '?')} iterations; the plan below is its last "
-                f"iterate.")
+                f"iterate; {words.impossibility_note(sol.solver.get('infeasibility'))}.")
     elif sol.status == "stopped":
         title = "Stopped by the time limit"
         lead = (f"The time limit of {sol.solver.get('time_limit_s', '?')} s ended the search "
                 f"before a satisfying plan was found; the plan below is the best verified one "
-                f"(exact robustness {fmt(sol.robustness_exact, signed=True)}).")
+                f"(exact robustness ρ = {fmt(sol.robustness_exact, signed=True)} < κ = "
+                f"{fmt(kappa)}); {words.impossibility_note(sol.solver.get('infeasibility'))}.")
     else:
         title = "Mission violated"
         lead = (f"No satisfying plan was found: exact robustness ρ = "
