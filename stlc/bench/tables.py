@@ -36,6 +36,7 @@ import numpy as np
 
 from stlc.analysis.monitor import robustness
 from stlc.analysis.smooth import smooth_robustness
+from stlc.bench import suite
 from stlc.semantics.ir import Always, And, Bin, Const, Eventually, Formula, Pred, Sig
 
 RTAMT_MS = 97.0
@@ -319,6 +320,8 @@ COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     "monitor": ("time the exact monitor and the smooth reference", _monitor_args, _monitor_run),
     "compile": ("time planning the missions of a file (medians of repeats)", _compile_args,
                 _compile_run),
+    "suite": ("the performance table of docs/performance.md, with the machine it ran on",
+              suite.add_arguments, suite.run),
 }
 
 
