@@ -49,14 +49,16 @@ def main(argv: list[str]) -> int:
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w:.0f}" height="{h:.0f}" '
              f'viewBox="0 0 {w:.0f} {h:.0f}" font-family="sans-serif" font-size="11">',
              f'<rect width="100%" height="100%" fill="white"/>']
+    placed: list[np.ndarray] = []  # label positions: a label near another is left out
     for r, hull in boxes:
         color = COLORS.get(r.kind, "#1f77b4")
         fill = "none" if r.kind == "workspace" else color
         label = r.name.rsplit(".", 1)[-1]
         parts.append(f'<polygon points="{" ".join(px(p) for p in hull)}" fill="{fill}" '
                      f'fill-opacity="0.15" stroke="{color}" stroke-width="1"/>')
-        if r.kind != "workspace":
-            c = np.array(hull[:-1], float).mean(0)
+        c = np.array(hull[:-1], float).mean(0)
+        if r.kind != "workspace" and all(np.abs(c - q).max() * SCALE > 24 for q in placed):
+            placed.append(c)
             parts.append(f'<text x="{px(c).split(",")[0]}" y="{px(c).split(",")[1]}" '
                          f'fill="{color}" text-anchor="middle">{escape(label)}</text>')
     for hm in humans.values():
