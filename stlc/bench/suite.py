@@ -123,8 +123,8 @@ def run_case(case: Case, out: str, plan: str) -> list[str]:
 
 
 def monitor_row(repeats: int = 20) -> list[str]:
-    from stlc.bench.tables import RTAMT_MS, bench_formula, bench_trace, time_ms
     from stlc.analysis.monitor import robustness
+    from stlc.bench.tables import RTAMT_MS, bench_formula, bench_trace, time_ms
 
     f, ch = bench_formula(), bench_trace(10_000, 0.1)
     ms = statistics.median(time_ms(lambda: robustness(f, 0.1, ch), repeats))
@@ -180,3 +180,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(table, end="")
     return 0
+
+
+COMMAND = ("the performance table of docs/performance.md, with the machine it ran on",
+           add_arguments, run)

@@ -36,7 +36,6 @@ import numpy as np
 
 from stlc.analysis.monitor import robustness
 from stlc.analysis.smooth import smooth_robustness
-from stlc.bench import suite
 from stlc.semantics.ir import Always, And, Bin, Const, Eventually, Formula, Pred, Sig
 
 RTAMT_MS = 97.0
@@ -320,24 +319,22 @@ COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     "monitor": ("time the exact monitor and the smooth reference", _monitor_args, _monitor_run),
     "compile": ("time planning the missions of a file (medians of repeats)", _compile_args,
                 _compile_run),
-    "suite": ("the performance table of docs/performance.md, with the machine it ran on",
-              suite.add_arguments, suite.run),
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: dict | None = None) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m stlc.bench", description=__doc__.split(
         "\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name, (help_text, add_arguments, run) in COMMANDS.items():
+    for name, (help_text, add_arguments, run) in (commands or COMMANDS).items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         add_arguments(p)
         p.set_defaults(run=run)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv: list[str] | None = None, commands: dict | None = None) -> int:
+    args = build_parser(commands).parse_args(argv)
     return args.run(args)
 
 
