@@ -204,3 +204,21 @@ def test_no_development_history_in_readme_docs_or_code() -> None:
         hits += [f"{f.relative_to(ROOT)}:{i}: {ln.strip()}"
                  for i, ln in enumerate(text.splitlines(), 1) if HISTORY.search(ln)]
     assert not hits, "\n".join(hits)
+
+
+def test_the_bench_table_replaces_only_its_block(tmp_path: Path) -> None:
+    from stlc.bench import suite
+
+    page = tmp_path / "perf.md"
+    page.write_text(f"intro\n{suite.START}\nold table\n{suite.END}\nafter\n", "utf-8")
+    table = suite.render([["a", "`stlc x`", "satisfied", "+0.100", "3", "1.0", "0.5", "—"]],
+                         "2026-01-01 00:00 UTC", "0.1 / 0.1 / 0.1", "0.2 / 0.2 / 0.2")
+    suite.update(str(page), table)
+    text = page.read_text("utf-8")
+    assert text.startswith(f"intro\n{suite.START}\n") and text.endswith(f"{suite.END}\nafter\n")
+    assert "old table" not in text and "| a | `stlc x` | satisfied | +0.100 |" in text
+    assert "cores" in text and "0.1 / 0.1 / 0.1 before" in text
+    page.write_text("no markers\n", "utf-8")
+    with pytest.raises(SystemExit):
+        suite.update(str(page), table)
+    assert page.read_text("utf-8") == "no markers\n"
