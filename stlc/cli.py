@@ -159,9 +159,9 @@ def _parser() -> argparse.ArgumentParser:
     w.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="each instance's limit: a stopped instance is a `stopped` row")
 
-    b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
+    b = sub.add_parser("bench", help="benchmarks (monitor, compile, suite)")
     b.add_argument("args", nargs=argparse.REMAINDER,
-                   help="`monitor` or `compile FILE.stl ...` (see `stlc bench -h`)")
+                   help="`monitor`, `compile FILE.stl ...` or `suite` (see `stlc bench -h`)")
 
     f = sub.add_parser("fmt", help="format .stl files in place (`-`: stdin to stdout)")
     f.add_argument("files", nargs="+", metavar="FILE",
