@@ -26,7 +26,7 @@ from collections.abc import Mapping
 
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.results.inputs import trace_of as _trace_of
-from stlc.results.inputs import with_constants
+from stlc.results.inputs import with_constants, with_settings
 from stlc.results.plan import Plan, Track
 from stlc.results.runs import Simulation, SweepTable, risk, simulate, sweep
 
@@ -56,7 +56,8 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
             backend: str | None = None) -> Plan:
     """Plan ``mission`` (its name; optional when the program has one mission), verify the
     plan with the exact monitor and run its risk cases (``risk=False`` skips them).
-    ``set``: constants to override, as in ``with_constants``.  ``quiet=False`` prints the
+    ``set``: what ``--set`` gives another value — constants (as ``with_constants``), a
+    human's pose field, a vehicle's start, a region's placement, with units.  ``quiet=False`` prints the
     solver's progress to stderr.  ``time_limit`` (s, as ``--time-limit``; else the mission's
     ``time_limit``, else the default limit) stops the search and returns the best verified
     plan (status ``stopped`` unless it is satisfied).  ``backend`` forces a chain, as
@@ -68,8 +69,9 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
 
     if isinstance(program, (str, os.PathLike)):
         program = load(program)
+    values: dict = {}
     if set:
-        program = with_constants(program, set)
+        program, values = with_settings(program, set)
     chosen = select_missions(program.file, program, mission)
     if len(chosen) > 1:
         raise StlError([Diagnostic("STL104", f"{program.file} has {len(chosen)} missions: "
@@ -81,7 +83,8 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
     t0 = time.perf_counter()
     with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
                           start=time.monotonic()):
-        problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend)
+        problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
+                                    values=values or None)
         if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
             sol.notes.append("the risk cases were not assessed: the time limit ran out "
                              "(`stlc.risk(program, mission, plan)` assesses them)")

@@ -154,6 +154,15 @@ def test_sweep_table_in_the_units_given(program, plan):
     assert {"spec.avoid", "spec.reach", "spec.inside", "solve_s"} <= set(rows.columns)
 
 
+def test_compile_set_takes_what_the_cli_set_takes(program):
+    rows = stlc.sweep(program, "reach_avoid", vary={"robot.start.pos.x": ("150 cm", "150 cm", 1)})
+    moved = stlc.compile(program, set={"robot.start.pos.x": "150 cm"})
+    assert moved.vehicle("robot").pos[0] == pytest.approx([1.5, 2, 1])  # was (1, 2, 1)
+    assert moved.robustness == pytest.approx(rows["robustness"][0], abs=1e-6)
+    assert moved.robustness == pytest.approx(
+        stlc.monitor(moved.program, moved.trajectory)["reach_avoid"], abs=1e-9)
+
+
 def test_sweep_without_pandas_is_a_list_of_records(program, monkeypatch):
     monkeypatch.setitem(sys.modules, "pandas", None)
     rows = stlc.sweep(program, "reach_avoid", ["robot.start.pos.y=2 m:2 m:1"])

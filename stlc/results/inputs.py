@@ -75,3 +75,21 @@ def trace_of(data: Mapping):
         raise bad("STL604", "the trace's time column is not uniform",
                   "resample the trace to a uniform step")
     return Trace(t, dt if math.isfinite(dt) else 1.0, cols, "<trace>")
+
+
+def with_settings(program, values: Mapping[str, object]):
+    """``--set`` from Python: constants, a human's pose field (``operator.pos.x``), a
+    vehicle's start (``uav1.start.pos.y``) or a region's placement, each with its unit
+    (``{"operator.att.z": "20 deg"}``; a number is unitless).  Returns (program, the values
+    set in SI by name); only constants: ``with_constants`` (values empty)."""
+    from stlc.frontend import ast
+    from stlc.frontend.syntax import parse
+    from stlc.semantics import overrides
+
+    tree = parse(program.source, program.file)
+    consts = {m.name for m in tree.members if isinstance(m, ast.Named) and m.kind == "const"}
+    if all(k in consts for k in values):
+        return with_constants(program, values), {}
+    items = [(k, repr(float(v)) if isinstance(v, (int, float)) else str(v))
+             for k, v in values.items()]
+    return overrides.checked(tree, items)

@@ -127,16 +127,18 @@ def simulate(program, mission: str | None = None, *, disturb=None, fail=None, mo
     displacement m), ``fail=[("uav1", 60.0, "uav3")]`` (drone, time s, backup) or
     ``move=("operator", 8.0, (0.3, 0.2, 0.0), 20)`` (human, time s, position m, yaw deg).
     ``time_limit`` bounds the nominal plan; replans keep their budget t_c."""
-    from stlc.results.inputs import load_program, with_constants
+    from stlc.results.inputs import load_program, with_settings
     from stlc.simulation import flight_events, fly
 
     program = load_program(program)
+    values: dict = {}
     if set:
-        program = with_constants(program, set)
+        program, values = with_settings(program, set)
     m = _one_mission(program, mission, "simulate")
     events = flight_events(program, m, _events(disturb, "disturb"), _events(fail, "fail"),
                            _events(move, "move"))
-    flown, _, sol, sim = fly(program, m, events, library=None if library is None
+    flown, _, sol, sim = fly(program, m, events, values=values or None,
+                             library=None if library is None
                              else os.fspath(library), time_limit=time_limit, quiet=quiet)
     return Simulation(Plan(flown, m, sol), sim)
 
@@ -244,11 +246,11 @@ def risk(program, mission: str | None = None, trajectory=None, *,
     from stlc.analysis.assess import run_risk, select_mission
     from stlc.analysis.trace import read_trace
     from stlc.planning.solution import Solution
-    from stlc.results.inputs import load_program, trace_of, with_constants
+    from stlc.results.inputs import load_program, trace_of, with_settings
 
     program = load_program(program)
     if set:
-        program = with_constants(program, set)
+        program, _ = with_settings(program, set)
     if isinstance(trajectory, Plan):
         mission = mission or trajectory.mission.name
         sol, dt = trajectory.solution, None
