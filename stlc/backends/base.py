@@ -80,7 +80,7 @@ class Capabilities:
 ALL_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
                        ir.Until, ir.Release, ir.Next})
 ALL_FUNCTIONS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log",
-                           "atan2", "angdiff"})
+                           "atan2", "angdiff", "sd_box", "sd_cylinder", "sd_capsule"})
 
 
 class Backend:

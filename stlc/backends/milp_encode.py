@@ -24,8 +24,11 @@ gives the maximum robustness over all plans:
   ``always``/``release``, −∞ for ``eventually``/``until``, as the exact monitor does).
 
 Terms are memoised by (node, sample), structurally: a sub-formula shared by named specs (or
-repeated) is encoded once.  A predicate that is not affine in the planned channels raises
-``NotLinear`` (the backend refuses it with STL401 at its span, before any work).
+repeated) is encoded once.  A predicate that reads a signed
+distance (``dist``, a round region) is encoded as its polyhedral bound, whose robustness is
+≤ the exact one (``stlc.semantics.polyhedral``: the MILP's ρ̂ is then a lower bound, and
+an infeasible model proves nothing).  Any other predicate that is not affine in the
+planned channels raises ``NotLinear`` (the backend refuses it with STL401 at its span, before any work).
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from dataclasses import dataclass
 
 from stlc.backends.milp_model import INF, Milp
 from stlc.semantics import ir
+from stlc.semantics.polyhedral import polyhedral
 from stlc.semantics.timegrid import TimeGrid
 
 
@@ -313,7 +317,8 @@ class Encoder:
     def _at(self, f: ir.Formula, k: int) -> Term:
         match f:
             case ir.Pred():
-                return self.pred(f, k)
+                poly = polyhedral(f)  # a signed distance: affine bounds below it
+                return self.pred(f, k) if poly is None else self.at(poly, k)
             case ir.TrueF():
                 return const(INF)
             case ir.FalseF():

@@ -20,6 +20,7 @@ from stlc.limits import MAX_EXPANSION
 from stlc.semantics import ir
 from stlc.semantics.check import units
 from stlc.semantics.check.context import Context, Scope, misaligned, nearest_hint
+from stlc.semantics.check.geometry import distance_expr
 from stlc.semantics.check.values import (
     ERROR,
     ErrorV,
@@ -302,8 +303,9 @@ class FormulaElaborator(Context):
                 return reg
             if not isinstance(reg, RegionV):
                 return self.err("STL208", f"expected a region after `in`, found {kind_name(reg)}",
-                                n.region.span, "regions are boxes: workspace, obstacles, "
-                                "targets, a human's regions, or box(lo, hi)")
+                                n.region.span, "regions are boxes and round shapes: workspace, "
+                                "obstacles, targets, a human's regions, box(lo, hi), "
+                                "cylinder(...), sphere(...), capsule(...)")
             if isinstance(v, Num):
                 v = to_sym(v)
             if not isinstance(v, Sym) or len(v.items) != 3:
@@ -379,18 +381,23 @@ def inflated(reg: RegionV, r: float) -> RegionV:
     if r <= 0:
         return reg
     b = reg.box
-    box = dataclasses.replace(b, lo=tuple(x - r for x in b.lo), hi=tuple(x + r for x in b.hi))
+    box = dataclasses.replace(b, lo=tuple(x - r for x in b.lo), hi=tuple(x + r for x in b.hi),
+                              shape=b.shape.grown(r) if b.shape is not None else None)
     return dataclasses.replace(reg, box=box)
 
 
 def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span,
                    origin: Origin | None = None) -> ir.Formula:
     """``p in box`` as six predicates, in the human's frame when the box is attached to one;
-    each face's ``origin`` (``origin`` with its axis and side) says which face it is."""
+    each face's ``origin`` (``origin`` with its axis and side) says which face it is.  A
+    round region is one predicate, ``−dist(p, R) ≥ 0`` (origin side ``surface``)."""
     box = reg.box
+    o = origin or Origin(FACE, label, region=reg.name, regions=(reg.name,) if reg.name else ())
+    if box.shape is not None:  # a round region: −(signed distance) ≥ 0, one predicate
+        sd = distance_expr(p, box, world_to_frame)
+        return ir.Pred(neg(sd), label, span, origin=dataclasses.replace(o, side="surface"))
     if box.frame is not None:
         p = world_to_frame(p, box.frame)
-    o = origin or Origin(FACE, label, region=reg.name, regions=(reg.name,) if reg.name else ())
     preds = []
     for k, axis in enumerate("xyz"):
         lo, hi = box_faces(box, k)

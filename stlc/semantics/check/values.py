@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlc.semantics import ir, model, nnf
+from stlc.semantics import ir, model, nnf, shapes
 from stlc.semantics.check.units import Dim
 
 
@@ -43,7 +43,7 @@ class Form:
 @dataclass(frozen=True)
 class RegionV:
     name: str
-    box: model.Box
+    box: model.Box  # a round region's bounding box, with the shape in ``box.shape``
 
 
 @dataclass(frozen=True)
@@ -155,6 +155,10 @@ def neg(a: ir.Expr) -> ir.Expr:
 
 
 def call(fn: str, *args: ir.Expr) -> ir.Expr:
+    if fn in shapes.SD_FUNCS:
+        if all(isinstance(a, ir.Const) for a in args):
+            return const(shapes.fold(fn, [a.value for a in args]))  # type: ignore[union-attr]
+        return ir.Call(fn, tuple(args))
     if all(isinstance(a, ir.Const) for a in args):
         vals = [a.value for a in args]  # type: ignore[union-attr]
         with np.errstate(all="ignore"):
