@@ -188,6 +188,9 @@ def _run_verified(problem, chain):
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     sol.solver["chain"] = chain_record(chain, sols)
+    seed = next((s.solver["seed"] for s in sols if isinstance(s.solver.get("seed"), dict)), {})
+    if seed.get("distances"):  # the MILP's polyhedral distances: their direction, stated
+        sol.notes.append(seed["distances"])
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0

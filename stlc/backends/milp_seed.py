@@ -67,7 +67,7 @@ from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa
 from stlc.backends.seed_grid import refine as _refine
 from stlc.backends.seed_inner import inner_norms
 from stlc.semantics import ir
-from stlc.semantics.polyhedral import polyhedral_formula
+from stlc.semantics.polyhedral import DISTANCE_NOTE, has_distance, polyhedral_formula
 from stlc.semantics.timegrid import TimeGrid
 
 TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
@@ -175,6 +175,8 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     f = seed_formula(problem)
     grid = problem.grid
     rec: dict = {"name": "HiGHS MILP seed (highspy)"}
+    if has_distance(problem.requirement):
+        rec["distances"] = DISTANCE_NOTE
     if isinstance(f, (ir.TrueF, ir.FalseF)):
         rec["status"] = "no position predicate"
         return (None, rec, None) if defer_free else (None, rec)
