@@ -11,7 +11,7 @@ import numpy as np
 
 from stlc.frontend import ast
 from stlc.semantics import ir, model
-from stlc.semantics.check import geometry, units
+from stlc.semantics.check import units
 from stlc.semantics.check.context import Context, Scope
 from stlc.semantics.check.values import (
     ERROR,
@@ -97,10 +97,6 @@ def _norm(el: Context, n: ast.Call, scope: Scope) -> Value:
 
 
 def _dist(el: Context, n: ast.Call, scope: Scope) -> Value:
-    return geometry.dist(el, n, scope, _point_dist)
-
-
-def _point_dist(el: Context, n: ast.Call, scope: Scope) -> Value:
     if not _arity(el, n, 2):
         return ERROR
     sub_node = ast.Call("norm", (ast.Binary("-", n.args[0], n.args[1], n.span),), (), n.span)
@@ -301,7 +297,7 @@ def _rotor_geometry(kind: str):
     return f
 
 
-KW_FUNCS = {"box", "normal", "hexarotor", "quadrotor", *geometry.FUNCS}
+KW_FUNCS = {"box", "normal", "hexarotor", "quadrotor"}
 
 FUNCS = {
     "abs": _elementwise("abs", lambda d: d),
@@ -322,6 +318,5 @@ FUNCS = {
     "normal": _normal,
     "hexarotor": _rotor_geometry("hexarotor"),
     "quadrotor": _rotor_geometry("quadrotor"),
-    **geometry.FUNCS,  # cylinder, sphere, capsule
 }
 

@@ -23,7 +23,8 @@ from stlc.frontend import ast
 from stlc.semantics import model, shapes
 from stlc.semantics.check import units
 from stlc.semantics.check.context import Context, Scope
-from stlc.semantics.check.values import ERROR, ErrorV, Num, RegionV, Sym, Value, kind_name, to_sym
+from stlc.semantics.check.values import (ERROR, ErrorV, Num, RegionV, Sym, Value, distance_expr,
+                                         kind_name, to_sym, world_to_frame)
 
 #: the parameters of each shape, in positional order: (name, kind of value, required)
 PARAMS = {
@@ -112,8 +113,6 @@ def _round(kind: str):
 
 def region_distance(el: Context, n: ast.Call, p: Value, reg: RegionV, scope: Scope) -> Value:
     """``dist(p, R)``: the signed distance call at ``p`` in R's own coordinates."""
-    from stlc.semantics.check.formulas import world_to_frame
-
     if isinstance(p, ErrorV):
         return p
     if isinstance(p, Num):
@@ -128,22 +127,12 @@ def region_distance(el: Context, n: ast.Call, p: Value, reg: RegionV, scope: Sco
                (el.text(n.span),))
 
 
-def distance_expr(p, box: model.Box, to_frame) -> shapes.ir.Expr:
-    """The signed distance expression of ``box`` (a box or a round region) at the world
-    point ``p``; ``to_frame(p, human)`` maps a world point into a human's frame."""
-    if box.frame is not None:
-        p = to_frame(tuple(p), box.frame)
-    if box.shape is None:
-        c = tuple((a + b) / 2 for a, b in zip(box.lo, box.hi))
-        q = shapes.local(tuple(p), shapes.centre_exprs(c, box.placed), None)
-    else:
-        q = shapes.local(tuple(p), shapes.centre_exprs(box.shape.center, box.placed),
-                         box.shape.axis)
-    return shapes.sd_expr(q, box.lo, box.hi, box.shape)
+def distance_or(point_distance):
+    """``dist``: ``dist(p, R)`` for a region R, else ``point_distance`` (``dist(p, q)``)."""
+    return lambda el, n, scope: dist(el, n, scope, point_distance)
 
 
 def dist(el: Context, n: ast.Call, scope: Scope, point_distance) -> Value:
-    """``dist(p, R)`` for a region R, else ``point_distance`` (``dist(p, q)``)."""
     if len(n.args) == 2 and not n.kwargs:
         second = el.value(n.args[1], scope)
         if isinstance(second, ErrorV):
