@@ -279,3 +279,28 @@ def test_fmt_round_trips_shapes():
     once = format_source(text)
     assert format_source(once) == once
     assert _program(once).scenario.region("r").box == _program(text).scenario.region("r").box
+
+
+def test_language_server_knows_the_shapes():
+    from stlc.tools import ide
+
+    text = TOWER.read_text()
+    an = ide.analyze(text, str(TOWER))
+    line = next(i for i, ln in enumerate(text.splitlines()) if "obstacle tower" in ln)
+    col = text.splitlines()[line].index("tower")
+    h = ide.hover(an, line + 1, col + 2) or ide.hover(an, line, col + 1)
+    assert h is not None and "cylinder(center = (0, 0, 5) m, radius = 1.5 m, height = 10 m)" in h
+    labels = {lab: detail for lab, kind, detail in ide.complete(an, "  spec x = ", line)}
+    assert "mid-height" in labels["cylinder"] and "signed distance" in labels["dist"]
+    assert {"sphere", "capsule"} <= set(labels)
+
+
+def test_report_reads_a_round_membership():
+    from stlc.output.report.predicates import readable
+
+    prog = _program(BASE.format(shape="sphere(center = (3, 0, 1) m, radius = 1 m)",
+                                formula="d.pos not in r"))
+    from stlc.semantics import ir, nnf
+
+    (p,) = ir.predicates(nnf.normalize(prog.specs["s"]))  # one predicate: the distance
+    assert readable(p.origin, p.label) == "d.pos outside r"
