@@ -180,3 +180,21 @@ def np_approx(x: float):
     import pytest
 
     return pytest.approx(x, abs=1e-8)
+
+
+@settings(max_examples=40, deadline=None)
+@given(shapes(), coord, coord, coord, coord, coord, coord)
+def test_segment_clearance_of_round_obstacles(shape, x0, y0, z0, x1, y1, z1):
+    from stlc.analysis.clearance import segment_region_distance
+    from stlc.semantics.model import Box
+
+    lo, hi = shape.bounds()
+    box = Box(lo, hi, shape=shape)
+    c = np.asarray(shape.center)
+    p0, p1 = c + [x0, y0, z0], c + [x1, y1, z1]
+    s = np.linspace(0, 1, 4001)
+    pts = p0 + s[:, None] * (p1 - p0)
+    brute = np.maximum(signed_distance(pts, None, None, shape), 0).min()
+    got = float(segment_region_distance(p0[None], p1[None], box)[0])
+    step = np.linalg.norm(p1 - p0) / 4000
+    assert got <= brute + 1e-9 and got >= brute - step
