@@ -110,7 +110,9 @@ def affine(e: ir.Expr, params: dict[str, float], pred: ir.Pred) -> Affine:
         case ir.Call(fn, args):
             vals = [affine(a, params, pred) for a in args]
             if any(v[0] for v in vals):
-                raise NotLinear(pred, f"`{fn}` is not linear in the state")
+                raise NotLinear(pred, "a distance to a region (`dist`, a round region) is not "
+                                "linear in the state" if fn.startswith("sd_") else
+                                f"`{fn}` is not linear in the state")
             return {}, _fold(fn, [v[1] for v in vals])  # of constants: a constant
     raise NotLinear(pred, f"unsupported expression {e!r}")
 
