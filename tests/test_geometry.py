@@ -304,3 +304,14 @@ def test_report_reads_a_round_membership():
 
     (p,) = ir.predicates(nnf.normalize(prog.specs["s"]))  # one predicate: the distance
     assert readable(p.origin, p.label) == "d.pos outside r"
+
+
+def test_region_distance_is_not_a_drone_separation():
+    from stlc.planning.bounds import stated_bounds
+
+    prog = _program(BASE.format(shape="sphere(center = (3, 0, 1) m, radius = 1 m)",
+                                formula="dist(d.pos, r) >= 1 m and dist(d.pos, d.pos) >= 0 m"))
+    assert "distance_min" in stated_bounds(prog.specs["s"])  # the point–point one only
+    only = _program(BASE.format(shape="sphere(center = (3, 0, 1) m, radius = 1 m)",
+                                formula="dist(d.pos, r) >= 1 m"))
+    assert "distance_min" not in stated_bounds(only.specs["s"])

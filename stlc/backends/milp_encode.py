@@ -40,6 +40,7 @@ from dataclasses import dataclass
 from stlc.backends.milp_model import INF, Milp
 from stlc.semantics import ir
 from stlc.semantics.polyhedral import polyhedral
+from stlc.semantics.shapes import SD_NUMPY
 from stlc.semantics.timegrid import TimeGrid
 
 
@@ -129,6 +130,8 @@ def _fold(fn: str, xs: list[float]) -> float:
         return max(xs)
     if fn == "atan2" and len(xs) == 2:
         return math.atan2(xs[0], xs[1])
+    if fn in SD_NUMPY:  # a signed distance of constants
+        return float(SD_NUMPY[fn](*xs))
     if fn == "angdiff" and len(xs) == 2:
         d = xs[0] - xs[1]
         return math.atan2(math.sin(d), math.cos(d))  # as the exact monitor
