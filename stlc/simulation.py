@@ -124,6 +124,11 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "which to simulate", Span(path, 1, 1, 1, 2),
                                     "pass --mission " + " | ".join(x.name for x in missions))])
     m = missions[0]
+    from stlc.analysis.hopeless import hopeless
+
+    doomed = hopeless(program, [m])  # a start below κ: no nominal plan exists
+    if doomed:
+        raise StlcError(doomed)
     if not (moves or disturbances or failures) and m.simulate and m.simulate.moves:
         moves = [_file_move(program, mv) for mv in m.simulate.moves]  # checked with the file
     elif moves:  # an operator move (paper A §6): replan.move, not disturbances

@@ -315,3 +315,42 @@ def test_region_distance_is_not_a_drone_separation():
     only = _program(BASE.format(shape="sphere(center = (3, 0, 1) m, radius = 1 m)",
                                 formula="dist(d.pos, r) >= 1 m"))
     assert "distance_min" not in stated_bounds(only.specs["s"])
+
+
+def test_scene_places_a_human_frame_round_region():
+    from stlc.output.report.scene import scene
+    from stlc.planning.solution import Solution
+
+    text = """\
+vehicle d : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (1, 1, 1) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+scenario {
+  human op {
+    pos = (2, 0, 0) m
+    att = (0, 0, 90) deg
+    region reach = capsule((1, 0, 1) m, (1, 0, 2) m, 0.3 m)   # ahead of op, upright
+  }
+}
+mission m {
+  vehicles = [d]
+  horizon = 1 s
+  step = 1 s
+  require always[0, 1] (d.pos not in op.reach)
+}
+"""
+    prog = _program(text)
+    t = np.array([0.0, 1.0])
+    sol = Solution(mission="m", status="satisfied", robustness_exact=0.0,
+                   robustness_smooth=0.0, specs={}, energy=0.0, times=t,
+                   channels={f"d.pos.{a}": np.zeros(2) for a in "xyz"})
+    sc = scene(prog, prog.missions["m"], sol)
+    (reach,) = [b for b in sc["boxes"] if b["name"] == "op.reach"]
+    assert reach["shape"] == "capsule" and reach["frame"] == "op"
+    V = np.stack([reach["mesh"][a] for a in "xyz"], axis=1)
+    # op faces +y: the segment is (2, 1, 1)–(2, 1, 2) in the world; every vertex 0.3 m from it
+    s = np.clip(V[:, 2] - 1.0, 0.0, 1.0)
+    nearest = np.stack([np.full(len(V), 2.0), np.full(len(V), 1.0), 1.0 + s], axis=1)
+    assert np.allclose(np.linalg.norm(V - nearest, axis=1), 0.3, atol=1e-6)

@@ -7,7 +7,7 @@
   names is the one computed here by hand;
 * only proofs: κ = 0 on the boundary, an `eventually`, an `always` that starts later, an
   `or` with a temporal operand — no error;
-* `stlc compile` stops at once with exit 1 and writes nothing.
+* `stlc compile` and `stlc simulate` stop at once with exit 1 and write nothing.
 """
 
 from __future__ import annotations
@@ -68,6 +68,11 @@ def test_compile_stops_before_planning(floor, tmp_path):
     assert "IPOPT" not in r.stderr and "iter" not in r.stderr  # nothing was planned
     assert not out.exists() or not any(out.iterdir())
     assert time.perf_counter() - t0 < 60
+    r = subprocess.run([sys.executable, "-m", "stlc", "simulate", str(floor), "--mission",
+                        "handover_left", "-o", str(out)], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 1 and "error[STL505]" in r.stderr
+    assert not out.exists() or not any(out.iterdir())
 
 
 PM = """\
