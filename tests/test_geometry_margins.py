@@ -115,3 +115,36 @@ def test_milp_seed_robustness_is_below_the_exact_one():
     exact = monitor.robustness(problem.requirement, problem.grid.dt, ch, prog.params)
     assert exact >= rec["robustness"] - 1e-6
     assert rec["distances"].startswith("the MILP seed saw each distance")
+
+
+def test_margins_survive_a_team_re_formed():
+    from stlc.semantics.teamform import for_team
+
+    text = """\
+vehicle a : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (1, 1, 1) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+vehicle b : point_mass {
+  vel_max = (1, 1, 1) m/s
+  acc_max = (1, 1, 1) m/s^2
+  start { pos = (1, 0, 1) m }
+}
+mission m {
+  team = [a, b]
+  horizon = 2 s
+  step = 1 s
+  margin = [0.2 m, 0.05 m/s]
+  require forall d in team: always[0, 2] (d.pos.z >= 0.5 m and d.speed <= 0.8 m/s)
+}
+"""
+    prog = check(parse(text, "<t>"))
+    m = for_team(prog.missions["m"], ("a",))
+    ch = {f"a.pos.{x}": np.zeros(3) for x in "xyz"}
+    ch["a.pos.z"] = np.array([1.0, 0.9, 1.2])
+    ch.update({"a.vel.x": np.array([0.5, 0.7, 0.1]), "a.vel.y": np.zeros(3),
+               "a.vel.z": np.zeros(3), "a.speed": np.array([0.5, 0.7, 0.1])})
+    rho = monitor.robustness(m.requirement, 1.0, ch, prog.params)
+    assert m.vehicles == ("a",) and m.threshold == 0.0
+    assert rho == pytest.approx(min(0.9 - 0.5 - 0.2, 0.8 - 0.7 - 0.05))

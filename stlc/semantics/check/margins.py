@@ -62,26 +62,6 @@ def _read(ck: Context, node: ast.Node, scope) -> dict[str, float] | None:
     return out
 
 
-def shifted(f: ir.Formula, margin: dict[str, float], default: float) -> ir.Formula:
-    """``f`` in normal form with each predicate lowered by the margin of its unit."""
-    memo: dict[int, ir.Formula] = {}
-
-    def go(g: ir.Formula) -> ir.Formula:
-        hit = memo.get(id(g))
-        if hit is None:
-            if isinstance(g, ir.Pred):
-                u = g.origin.unit if g.origin is not None else ""
-                m = margin.get(u, default)
-                hit = g if m == 0 else dataclasses.replace(
-                    g, expr=ir.Bin("-", g.expr, ir.Const(m)), bound=None)
-            else:
-                hit = ir.map_children(g, go)
-            memo[id(g)] = hit
-        return hit
-
-    return go(nnf.normalize(f))
-
-
 def apply(ck: Context, block: ast.Block, mission: model.Mission) -> model.Mission:
     """The checked mission with its ``margin`` list applied (module docstring)."""
     m = next((x for x in block.members if isinstance(x, ast.Field) and x.name == "margin"),
@@ -97,5 +77,7 @@ def apply(ck: Context, block: ast.Block, mission: model.Mission) -> model.Missio
     values = {margin.get(u, kappa) for u in present} or {kappa}
     if len(values) == 1:  # one margin over every unit present: that is κ
         return dataclasses.replace(mission, threshold=values.pop(), options=options)
-    return dataclasses.replace(mission, requirement=shifted(mission.requirement, margin, kappa),
+    options["margin_default"] = kappa  # for a requirement re-formed over another team
+    return dataclasses.replace(mission, requirement=nnf.with_margins(mission.requirement, margin,
+                                                                     kappa),
                                threshold=0.0, options=options)
