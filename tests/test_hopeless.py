@@ -148,3 +148,10 @@ def test_until_left_side_and_margins():
     bad = text.replace("threshold = 0", "margin = [0.5 m, 0.1 m/s]")
     (d,) = hopeless(check(parse(bad, "<h>")))
     assert _value(d) == pytest.approx(0.05 - 0.1)  # 0.05 m/s of slack, 0.1 asked
+
+
+def test_language_server_shows_it(floor):
+    from stlc.tools import ide
+
+    an = ide.analyze(floor.read_text(), str(floor))
+    assert [d.code for d in an.diagnostics if d.severity == "error"] == ["STL505"] * 3

@@ -62,7 +62,8 @@ class Analysis:
 
 def analyze(text: str, path: str) -> Analysis:
     """Parse (recovering from syntax errors) and check ``text``; a file that checks gets
-    the lint warnings of ``stlc check`` (severity "warning")."""
+    the lint warnings of ``stlc check`` (severity "warning") and its STL505 (a start that
+    cannot meet κ)."""
     from stlc.frontend.syntax import parse
     from stlc.semantics.check import check
 
@@ -98,6 +99,9 @@ def analyze(text: str, path: str) -> Analysis:
         from stlc.semantics.lint import lint
 
         diags.extend(lint(tree, an.program))
+        from stlc.analysis.hopeless import hopeless
+
+        diags.extend(hopeless(an.program))  # a start below κ, as `stlc check` says
     return an
 
 
