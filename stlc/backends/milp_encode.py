@@ -28,7 +28,8 @@ repeated) is encoded once.  A predicate that reads a signed
 distance (``dist``, a round region) is encoded as its polyhedral bound, whose robustness is
 ≤ the exact one (``stlc.semantics.polyhedral``: the MILP's ρ̂ is then a lower bound, and
 an infeasible model proves nothing).  Any other predicate that is not affine in the
-planned channels raises ``NotLinear`` (the backend refuses it with STL401 at its span, before any work).
+planned channels raises ``NotLinear`` (the backend refuses it with STL401 at its span,
+before any work).
 """
 
 from __future__ import annotations

@@ -77,7 +77,8 @@ class Round:
                        radius=self.radius * s, half=self.half * s)
 
     def moved(self, d) -> Round:
-        return replace(self, center=tuple(float(x + e) for x, e in zip(self.center, d)))  # type: ignore
+        c = tuple(float(x + e) for x, e in zip(self.center, d))
+        return replace(self, center=c)  # type: ignore[arg-type]
 
     def describe(self) -> str:
         c = ", ".join(f"{x:g}" for x in self.center)
