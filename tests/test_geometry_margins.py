@@ -148,3 +148,10 @@ mission m {
     rho = monitor.robustness(m.requirement, 1.0, ch, prog.params)
     assert m.vehicles == ("a",) and m.threshold == 0.0
     assert rho == pytest.approx(min(0.9 - 0.5 - 0.2, 0.8 - 0.7 - 0.05))
+
+
+def test_margins_keep_the_limits_as_written():
+    from stlc.planning.bounds import stated_bounds
+
+    _, prog = _prog("margin = [0.2 m, 0.05 m/s]")
+    assert stated_bounds(prog.missions["m"].requirement)["speed"] == [0.0, 0.8]

@@ -131,8 +131,9 @@ def with_margins(f: ir.Formula, margin: dict[str, float], default: float) -> ir.
             if isinstance(g, ir.Pred):
                 u = g.origin.unit if g.origin is not None else ""
                 m = margin.get(u, default)
+                # the bound (the limit as written, for reports and separations) is kept
                 hit = g if m == 0 else dataclasses.replace(
-                    g, expr=ir.Bin("-", g.expr, ir.Const(m)), bound=None)
+                    g, expr=ir.Bin("-", g.expr, ir.Const(m)))
             else:
                 hit = ir.map_children(g, go)
             memo[id(g)] = hit
