@@ -155,3 +155,52 @@ def test_margins_keep_the_limits_as_written():
 
     _, prog = _prog("margin = [0.2 m, 0.05 m/s]")
     assert stated_bounds(prog.missions["m"].requirement)["speed"] == [0.0, 0.8]
+
+
+PLANNED = """\
+vehicle p : point_mass {
+  vel_max = (2, 2, 2) m/s
+  acc_max = (1, 1, 1) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+scenario {
+  workspace = box((-5, -5, 0), (5, 5, 3)) m
+  target goal = box((3, -1, 0.5), (4, 1, 1.5)) m
+}
+mission m {
+  vehicles = [p]
+  horizon = 10 s
+  step = 0.5 s
+  margin = [0.3 m, 0.1 m/s]
+  require always[0, 10] (p.pos in workspace and p.speed <= 1 m/s)
+          and eventually[0, 9] always[0, 1] (p.pos in goal)
+}
+"""
+
+
+def test_a_plan_keeps_each_units_margin(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    from stlc.analysis.trace import read_trace
+
+    src = tmp_path / "m.stl"
+    src.write_text(PLANNED)
+    r = subprocess.run([sys.executable, "-m", "stlc", "compile", str(src), "-o",
+                        str(tmp_path / "out"), "-q"], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads((tmp_path / "out" / "solution.json").read_text())["status"] == \
+        "satisfied"
+    tr = read_trace(str(tmp_path / "out" / "trajectory.csv"))
+    P = np.stack([tr.channels[f"p.pos.{a}"] for a in "xyz"], axis=1)
+    V = np.stack([tr.channels[f"p.vel.{a}"] for a in "xyz"], axis=1)
+    assert np.linalg.norm(V, axis=1).max() <= 1.0 - 0.1 + 1e-6  # the m/s margin
+    ws = np.minimum.reduce([P[:, 0] + 5, 5 - P[:, 0], P[:, 1] + 5, 5 - P[:, 1], P[:, 2],
+                            3 - P[:, 2]])
+    assert ws.min() >= 0.3 - 1e-6  # the metre margin, every sample
+    depth = np.minimum.reduce([P[:, 0] - 3, 4 - P[:, 0], P[:, 1] + 1, 1 - P[:, 1],
+                               P[:, 2] - 0.5, 1.5 - P[:, 2]])
+    held = [depth[k:k + 3].min() for k in range(len(depth) - 2)]  # 1 s = 3 samples
+    assert max(held) >= 0.3 - 1e-6
