@@ -78,6 +78,11 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
                                    "say which to compile", Span(program.file, 1, 1, 1, 2),
                                    "missions: " + ", ".join(m.name for m in chosen))])
     m = chosen[0]
+    from stlc.analysis.hopeless import hopeless
+
+    doomed = hopeless(program, [m])  # a start below κ: an error before any planning
+    if doomed:
+        raise StlError(doomed)
     if time_limit is not None and not (time_limit > 0):
         raise ValueError(f"time_limit must be a positive number of seconds, not {time_limit!r}")
     t0 = time.perf_counter()

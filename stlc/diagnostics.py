@@ -85,6 +85,7 @@ CODES: dict[str, str] = {
     "STL502": "the solver failed",
     "STL503": "no task assignment exists (capacity, stations, reach or horizon)",
     "STL504": "no plan can satisfy the mission: its specs conflict (proved infeasible)",
+    "STL505": "the start state cannot meet the threshold κ: no plan exists",
     # input files (traces, trajectories)
     "STL601": "cannot read file",
     "STL602": "malformed trace",
@@ -99,6 +100,7 @@ CODES: dict[str, str] = {
     "STLW02": "an implication holds only vacuously on the plan",
     "STLW03": "a region lies outside the workspace",
     "STLW04": "declared and never used",
+    "STLW05": "one threshold κ over predicates measured in different units",
 }
 
 

@@ -145,7 +145,12 @@ def flight_events(program: model.Program, m: model.Mission, disturbances: list |
                   failures: list | None, moves: list | None) -> tuple:
     """The checked events of a simulation (raises ``StlcError`` before any solve):
     (moves, disturbances, failures, replanning configuration)."""
+    from stlc.analysis.hopeless import hopeless
+
     path = program.file
+    doomed = hopeless(program, [m])  # a start below κ: no nominal plan exists
+    if doomed:
+        raise StlcError(doomed)
     if not (moves or disturbances or failures) and m.simulate and m.simulate.moves:
         moves = [_file_move(program, mv) for mv in m.simulate.moves]  # checked with the file
     elif moves:  # an operator move (paper A §6): replan.move, not disturbances

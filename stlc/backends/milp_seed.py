@@ -11,7 +11,10 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
 * the requirement keeps its predicates on positions and velocities; an upper bound on a
   norm of them (a speed limit) becomes the box inside its ball (``seed_inner``); every
   other predicate (a lower bound on a norm, heading, rotor speed, attitude, payload)
-  becomes ``true`` (the NLP adds them back);
+  becomes ``true`` (the NLP adds them back); a signed distance to a region (``dist``, a
+  round region) becomes its polyhedral bound below the exact robustness
+  (``stlc.semantics.polyhedral``: a round shape is seen through its circumscribed polytope
+  for a clearance, an inscribed bound for a band's far side);
 * the grid is **as coarse as the formula's intervals allow**: the largest multiple h of the
   mission step, at most ``MAX_STEP_S``, that divides the horizon and every finite bound of a
   temporal operator — so every window of the formula falls on seed samples;
@@ -64,6 +67,7 @@ from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa
 from stlc.backends.seed_grid import refine as _refine
 from stlc.backends.seed_inner import inner_norms
 from stlc.semantics import ir
+from stlc.semantics.polyhedral import DISTANCE_NOTE, has_distance, polyhedral_formula
 from stlc.semantics.timegrid import TimeGrid
 
 TIME_LIMIT_S = 15.0  #: HiGHS's wall limit for the seed in all (1–3 s idle on the handovers)
@@ -83,6 +87,7 @@ def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
 
     keep = _kept_channels(problem)  # positions, velocities and fixed channels
     inner = inner_norms(problem.requirement, problem.params)  # speed limits: inner boxes
+    inner = polyhedral_formula(inner)  # distances: affine bounds below the exact ρ
     f = ir.restrict(_drop_nonlinear(inner, problem.params, {}), lambda s: s in keep)
     if clearance <= 0:
         return f
@@ -170,6 +175,8 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     f = seed_formula(problem)
     grid = problem.grid
     rec: dict = {"name": "HiGHS MILP seed (highspy)"}
+    if has_distance(problem.requirement):
+        rec["distances"] = DISTANCE_NOTE
     if isinstance(f, (ir.TrueF, ir.FalseF)):
         rec["status"] = "no position predicate"
         return (None, rec, None) if defer_free else (None, rec)

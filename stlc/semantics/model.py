@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 from stlc.diagnostics import Span
 from stlc.semantics.ir import Formula
+from stlc.semantics.shapes import Round
 from stlc.semantics.teamform import TeamForm
 from stlc.vehicles.declared import AXES, Multirotor, PointMass, Rotor, Vehicle
 
@@ -38,12 +39,14 @@ class Box:
     """Axis-aligned box ``lo <= p <= hi``; ``frame`` names a human when the box is in that
     human's frame (else world frame).  ``placed`` names a world box whose centre is a
     parameter of the formulas (``Param`` leaves ``<placed>.center.{x,y,z}``, set with
-    ``--set``; ``lo``/``hi`` are its current corners)."""
+    ``--set``; ``lo``/``hi`` are its current corners).  ``shape``: a round region (cylinder,
+    sphere, capsule; ``stlc.semantics.shapes``) whose bounding box ``lo``/``hi`` are."""
 
     lo: Vec3
     hi: Vec3
     frame: str | None = None
     placed: str | None = None
+    shape: Round | None = None
 
 
 @dataclass(frozen=True, slots=True)

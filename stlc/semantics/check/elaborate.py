@@ -108,7 +108,8 @@ class ExpressionElaborator(Context):
                 if not self.finite(np.concatenate([lo, hi]), "the corners of a box", n.span):
                     return ERROR
                 return RegionV(name, model.Box(tuple(map(float, lo)),  # type: ignore[arg-type]
-                                               tuple(map(float, hi)), box.frame))
+                                               tuple(map(float, hi)), box.frame,
+                                               shape=box.shape and box.shape.scaled(scale)))
             case DistV(mean, cov, _):
                 with np.errstate(over="ignore"):  # reported by `value` if not finite
                     return DistV(mean * scale, cov * scale * scale, dim)
@@ -226,6 +227,8 @@ class ExpressionElaborator(Context):
             case RegionV(name, box):
                 fields = {"lo": Num(np.array(box.lo), units.LENGTH),
                           "hi": Num(np.array(box.hi), units.LENGTH)}
+                if box.shape is not None and part == "radius":
+                    return Num(np.array(box.shape.radius), units.LENGTH)
                 if box.frame is None and part in ("center", "centre"):
                     return Num((np.array(box.lo) + np.array(box.hi)) / 2, units.LENGTH)
                 if part in fields and box.frame is None:

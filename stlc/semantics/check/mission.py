@@ -22,7 +22,7 @@ MISSION_FIELDS = {
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
     "backend": False,
-    "time_limit": False, "end": False,
+    "time_limit": False, "end": False, "margin": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000

@@ -18,7 +18,7 @@ from dataclasses import replace
 from stlc.diagnostics import StlcError
 from stlc.frontend import ast
 from stlc.semantics import ir, model
-from stlc.semantics.check import builtins, declarations
+from stlc.semantics.check import builtins, declarations, geometry, margins
 from stlc.semantics.check.elaborate import ExpressionElaborator
 from stlc.semantics.check.events import check_simulate
 from stlc.semantics.check.formulas import FormulaElaborator
@@ -47,7 +47,8 @@ def check(tree: ast.File, placed: frozenset[str] = frozenset()) -> model.Program
 class Checker(ExpressionElaborator, FormulaElaborator, TeamTemplates):
     """One checker pass over a file."""
 
-    functions = builtins.FUNCS
+    functions = {**builtins.FUNCS, **geometry.FUNCS,  # cylinder, sphere, capsule
+                 "dist": geometry.distance_or(builtins.FUNCS["dist"])}  # dist(p, R) too
 
     def uncertain(self, m: ast.Uncertain, human: str | None, attach: bool = True
                   ) -> model.Normal | None:
@@ -79,6 +80,7 @@ class Checker(ExpressionElaborator, FormulaElaborator, TeamTemplates):
             if isinstance(m, ast.Block) and m.kind == "mission":
                 mis = check_mission(self, m, specs)
                 if mis is not None:
+                    mis = margins.apply(self, m, mis)  # κ by unit (``margin = [...]``)
                     delay = (mis.replan or model.ReplanConfig()).takeover_delay
                     mis = replace(mis, simulate=check_simulate(self, m, mis.vehicles,
                                                                mis.horizon, delay))

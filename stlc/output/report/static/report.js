@@ -55,7 +55,8 @@
   /* ------------------------------------------------------------------ scene */
   function edgeTrace(b) {
     var x = [], y = [], z = [];
-    EDGES.forEach(function (e) {
+    if (b.mesh) { x = b.mesh.outline[0]; y = b.mesh.outline[1]; z = b.mesh.outline[2]; }
+    else EDGES.forEach(function (e) {
       [e[0], e[1]].forEach(function (k) { var c = b.corners[k]; x.push(c[0]); y.push(c[1]); z.push(c[2]); });
       x.push(null); y.push(null); z.push(null);
     });
@@ -65,10 +66,11 @@
              line: { color: b.color, width: b.wireframe ? 1.5 : 3 } };
   }
   function meshTrace(b) {
-    return { type: "mesh3d", x: b.corners.map(function (c) { return c[0]; }),
-             y: b.corners.map(function (c) { return c[1]; }),
-             z: b.corners.map(function (c) { return c[2]; }),
-             i: TRI_I, j: TRI_J, k: TRI_K, color: b.color, opacity: 0.22, flatshading: true,
+    var m = b.mesh || { x: b.corners.map(function (c) { return c[0]; }),
+                        y: b.corners.map(function (c) { return c[1]; }),
+                        z: b.corners.map(function (c) { return c[2]; }), i: TRI_I, j: TRI_J, k: TRI_K };
+    return { type: "mesh3d", x: m.x, y: m.y, z: m.z,
+             i: m.i, j: m.j, k: m.k, color: b.color, opacity: 0.22, flatshading: !b.mesh,
              name: txt(b.label), legendgroup: "box-" + b.name, showlegend: true,
              visible: b.visible ? true : "legendonly",
              hovertemplate: txt(b.name) + " · " + b.role_label + "<extra></extra>" };
