@@ -206,3 +206,16 @@ def test_risk_from_a_plan_and_from_its_csv_agree(tmp_path):
     with pytest.raises(TypeError, match="trajectory"):
         stlc.risk(program)
     assert not math.isnan(tight["nominal_robustness"])
+
+
+def test_plot_draws_round_regions():
+    plan = stlc.compile(ROOT / "specs" / "tower_inspection.stl", time_limit=120)
+    scene = plan.plot()
+    tower = next(t for t in scene.data if t.type == "mesh3d" and t.name == "tower")
+    # the file: cylinder(center = (0, 0, 5) m, radius = 1.5 m, height = 10 m)
+    r = np.hypot(np.asarray(tower.x), np.asarray(tower.y))
+    assert r.max() == pytest.approx(1.5, abs=1e-3) and len(tower.x) > 8
+    assert (min(tower.z), max(tower.z)) == pytest.approx((0, 10), abs=1e-6)
+    top = next(t for t in scene.data if t.type == "mesh3d" and t.name == "top")
+    d = np.linalg.norm(np.stack([top.x, np.asarray(top.y) - 3.5, np.asarray(top.z) - 9]), axis=0)
+    assert d == pytest.approx(np.full(d.shape, 0.8), abs=1e-3)  # sphere(radius = 0.8 m)

@@ -39,18 +39,22 @@ def scene_3d(scene: dict):
     fig = go.Figure()
     for b in scene["boxes"]:
         c = b.get("corners")
-        if not c:  # a region the view draws another way
+        mesh = b.get("mesh")  # a round region: its triangles and outline
+        if not c and not mesh:
             continue
         vis = True if b["visible"] else "legendonly"
+        m = mesh or {"x": [p[0] for p in c], "y": [p[1] for p in c], "z": [p[2] for p in c],
+                     "i": TRI[0], "j": TRI[1], "k": TRI[2]}
         if not b["wireframe"]:
-            fig.add_trace(go.Mesh3d(x=[p[0] for p in c], y=[p[1] for p in c],
-                                    z=[p[2] for p in c], i=TRI[0], j=TRI[1], k=TRI[2],
-                                    color=b["color"], opacity=0.22, flatshading=True,
+            fig.add_trace(go.Mesh3d(x=m["x"], y=m["y"], z=m["z"], i=m["i"], j=m["j"], k=m["k"],
+                                    color=b["color"], opacity=0.22, flatshading=not mesh,
                                     name=b["label"], legendgroup=b["name"], visible=vis,
                                     hovertemplate=f"{b['name']} · {b['role_label']}"
                                                   "<extra></extra>"))
         x, y, z = [], [], []
-        for e in EDGES:
+        if mesh:
+            x, y, z = (list(v) for v in mesh["outline"])
+        for e in EDGES if not mesh else ():
             for k in e:
                 x.append(c[k][0])
                 y.append(c[k][1])
