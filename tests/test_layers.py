@@ -15,6 +15,7 @@ The units, lowest first (``LAYERS``)::
     planning   the contract: PlanningProblem in, Solution out; verification
     backends   planners behind the Backend interface
     replan     online replanning (flight loop, events, result)
+    flight     frames, flight-stack exports, flight logs in, the closed-loop simulator
     output     writers: solution.json, CSVs, the HTML report, the output directory
     pipeline   orders the passes
     simulation ``stlc simulate``: the compile, then the flight loops of ``replan``
@@ -47,6 +48,7 @@ LAYERS: list[set[str]] = [
     {"planning"},
     {"backends"},
     {"replan"},
+    {"flight"},
     {"output"},
     {"pipeline"},
     {"simulation"},

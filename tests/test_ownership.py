@@ -71,7 +71,8 @@ def test_user_files_matching_the_per_drone_pattern_survive_dot_output(tmp_path):
     # the recompile removed simulate's recorded files, and only those
     assert "replan.json" not in names and "executed.csv" not in names
     rec = json.loads((tmp_path / directory.MANIFEST).read_text())["files"]
-    assert set(rec) == {"report.html", "solution.json", "trajectory.csv"}
+    assert set(rec) == {"report.html", "solution.json", "trajectory.csv", "flight/p.px4.csv",
+                        "flight/p.mrs.csv", "rosbag2/metadata.yaml", "rosbag2/rosbag2.mcap"}
 
 
 def _publish(out: Path, tmp_path: Path, files: dict[str, str], complete=True) -> list[str]:

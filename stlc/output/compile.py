@@ -4,7 +4,8 @@
 The pipeline (``stlc.pipeline.compile_file``) orders the passes and calls this last, once
 everything the outputs contain exists.  ``stlc.output.directory`` writes them: only stlc's own
 files, each replaced atomically, as one set under a lock on the directory (checked before any
-solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker.
+solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker;
+every plan its flight-stack outputs (``flight/``, ``rosbag2/``: ``stlc.flight.export``).
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
             fh.write(solution_json(sol))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
+        if sol.times.size:  # PX4 / MRS setpoints and a ROS 2 bag (``stlc.flight.export``)
+            from stlc.flight.export import write_flight_outputs
+
+            write_flight_outputs(tmp, program, mission, sol.times, sol.channels)
         if sol.routes:
             from stlc.backends.team_backend import solution_plan
             from stlc.team.refine import per_drone_csv
