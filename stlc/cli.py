@@ -65,7 +65,13 @@ def _parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE")
-    m.add_argument("--trace", required=True, metavar="CSV")
+    src = m.add_mutually_exclusive_group(required=True)
+    src.add_argument("--trace", metavar="CSV")
+    src.add_argument("--log", metavar="PATH", help="a flight log: PX4 ULog (.ulg), rosbag2 "
+                     "folder or .mcap, resampled onto the mission's step (or --resample)")
+    m.add_argument("--map", metavar="DRONE=TOPIC", action="append", default=[],
+                   type=_mapping, dest="maps", help="the log's topic (ULog: instance) of a "
+                   "vehicle, e.g. uav1=/uav1/odom (repeatable)")
     m.add_argument("--json", action="store_true", help="print one JSON object")
     m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
                    help="interpolate a log with a non-uniform time column onto steps of DT s")
@@ -223,6 +229,14 @@ def _move(text: str):
                 None if yaw is None else (0.0, 0.0, yaw))
 
 
+def _mapping(text: str) -> tuple[str, str]:
+    drone, sep, topic = text.partition("=")
+    if not sep or not drone or not topic:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected DRONE=TOPIC, e.g. "
+                                         "uav1=/uav1/odom")
+    return drone, topic
+
+
 def _failure(text: str) -> tuple[str, float]:
     drone, sep, t = text.partition("@")
     if not sep or not drone:
@@ -325,14 +339,21 @@ def cmd_monitor(args) -> int:
 
     loaded = load(args.file, args.sets)
     program = loaded.program
-    trace = read_trace(args.trace, resample=args.resample)
-    res = monitor_trace(program, trace)
+    if args.log is not None:
+        trace, res = _monitor_log(args, program)
+    else:
+        trace = read_trace(args.trace, resample=args.resample)
+        res = monitor_trace(program, trace)
     found = vacuous(monitored_formulas(program), trace.dt, trace.channels, program.params,
                     trace.n)
     emit_warnings(loaded.warnings + found, False, {args.file: program.source})
     for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
+    for name, v in res.items():
+        if v.get("missing"):
+            print(f"note: `{name}` is undefined: the log has no "
+                  + ", ".join(v["missing"]), file=sys.stderr)
     if trace.resampled is not None:
         r = trace.resampled
         print(f"note: resampled {r['samples_in']} samples onto steps of {r['dt']:g} s "
@@ -352,6 +373,23 @@ def cmd_monitor(args) -> int:
     if args.fail_on_violation and any(v["satisfied"] is not True for v in res.values()):
         return EXIT_UNSAT
     return EXIT_OK
+
+
+def _monitor_log(args, program):
+    """``--log``: the flight log as a trace on the mission's grid, and the exact robustness
+    of every monitored formula it has the signals of (``stlc.flight.logs``)."""
+    from stlc.diagnostics import Diagnostic, Span
+    from stlc.flight.logs import monitor_available, read_log
+    from stlc.pipeline import monitored_formulas
+
+    maps = dict(args.maps)
+    dt = args.resample or next((m.step for m in program.missions.values()), None)
+    if dt is None:
+        raise StlcError([Diagnostic("STL602", f"{args.file} declares no mission whose step "
+                                    "the log could be resampled to", Span(args.file, 1, 1, 1, 2),
+                                    "give the step: `--resample 0.1`")])
+    trace = read_log(args.log, list(program.vehicles), maps, dt)
+    return trace, monitor_available(monitored_formulas(program), trace, program.params)
 
 
 def cmd_compile(args) -> int:
