@@ -1,5 +1,5 @@
-"""Command line: ``stlc check | monitor | compile | simulate | risk | bench | fmt | lsp |
-explain`` (the language tools live in ``stlc.tools``).
+"""Command line: ``stlc check | monitor | compile | simulate | fly | risk | bench | fmt |
+lsp | explain`` (the language tools live in ``stlc.tools``).
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
@@ -65,13 +65,9 @@ def _parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE")
-    src = m.add_mutually_exclusive_group(required=True)
-    src.add_argument("--trace", metavar="CSV")
-    src.add_argument("--log", metavar="PATH", help="a flight log: PX4 ULog (.ulg), rosbag2 "
-                     "folder or .mcap, resampled onto the mission's step (or --resample)")
-    m.add_argument("--map", metavar="DRONE=TOPIC", action="append", default=[],
-                   type=_mapping, dest="maps", help="the log's topic (ULog: instance) of a "
-                   "vehicle, e.g. uav1=/uav1/odom (repeatable)")
+    from stlc.fly import add_log_options
+
+    add_log_options(m)
     m.add_argument("--json", action="store_true", help="print one JSON object")
     m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
                    help="interpolate a log with a non-uniform time column onto steps of DT s")
@@ -117,6 +113,10 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--library", metavar="DIR", default=None,
                    help="warm-start a replan from the nearest plan of a sweep's DIR")
     _set_option(s)
+
+    from stlc.fly import add_parser as add_fly
+
+    add_fly(sub, _set_option, _seconds)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE")
@@ -229,14 +229,6 @@ def _move(text: str):
                 None if yaw is None else (0.0, 0.0, yaw))
 
 
-def _mapping(text: str) -> tuple[str, str]:
-    drone, sep, topic = text.partition("=")
-    if not sep or not drone or not topic:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected DRONE=TOPIC, e.g. "
-                                         "uav1=/uav1/odom")
-    return drone, topic
-
-
 def _failure(text: str) -> tuple[str, float]:
     drone, sep, t = text.partition("@")
     if not sep or not drone:
@@ -260,7 +252,8 @@ def main(argv: list[str] | None = None) -> int:
     limits.set_max_memory(getattr(args, "max_memory", None))
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
-           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep}[args.cmd]
+           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep,
+           "fly": cmd_fly}[args.cmd]
     if threading.current_thread() is threading.main_thread():
         interrupt.on_termination()  # SIGTERM/SIGHUP: Ctrl-C's contract, exit 143/129
     try:
@@ -340,7 +333,9 @@ def cmd_monitor(args) -> int:
     loaded = load(args.file, args.sets)
     program = loaded.program
     if args.log is not None:
-        trace, res = _monitor_log(args, program)
+        from stlc.fly import monitor_log
+
+        trace, res = monitor_log(args, program)
     else:
         trace = read_trace(args.trace, resample=args.resample)
         res = monitor_trace(program, trace)
@@ -350,10 +345,6 @@ def cmd_monitor(args) -> int:
     for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
         if math.isnan(v["robustness"]):
             v["satisfied"] = None
-    for name, v in res.items():
-        if v.get("missing"):
-            print(f"note: `{name}` is undefined: the log has no "
-                  + ", ".join(v["missing"]), file=sys.stderr)
     if trace.resampled is not None:
         r = trace.resampled
         print(f"note: resampled {r['samples_in']} samples onto steps of {r['dt']:g} s "
@@ -375,23 +366,6 @@ def cmd_monitor(args) -> int:
     return EXIT_OK
 
 
-def _monitor_log(args, program):
-    """``--log``: the flight log as a trace on the mission's grid, and the exact robustness
-    of every monitored formula it has the signals of (``stlc.flight.logs``)."""
-    from stlc.diagnostics import Diagnostic, Span
-    from stlc.flight.logs import monitor_available, read_log
-    from stlc.pipeline import monitored_formulas
-
-    maps = dict(args.maps)
-    dt = args.resample or next((m.step for m in program.missions.values()), None)
-    if dt is None:
-        raise StlcError([Diagnostic("STL602", f"{args.file} declares no mission whose step "
-                                    "the log could be resampled to", Span(args.file, 1, 1, 1, 2),
-                                    "give the step: `--resample 0.1`")])
-    trace = read_log(args.log, list(program.vehicles), maps, dt)
-    return trace, monitor_available(monitored_formulas(program), trace, program.params)
-
-
 def cmd_compile(args) -> int:
     from stlc.pipeline import compile_file
 
@@ -410,6 +384,12 @@ def cmd_simulate(args) -> int:
                          disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
                          time_limit=args.time_limit, sets=args.sets,
                          moves=[args.move] if args.move else None, library=args.library)
+
+
+def cmd_fly(args) -> int:
+    from stlc.fly import command
+
+    return command(args)
 
 
 def cmd_risk(args) -> int:

@@ -23,6 +23,8 @@ The units, lowest first (``LAYERS``)::
                ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     tools      language tools: fmt, lsp, explain
     sweep      ``stlc sweep`` on Dask (a client and its workers' tasks)
+    fly        ``stlc fly``: the compile, then the closed loop of ``flight`` (on the sweep's
+               Dask client); the flight options of the command line
     bench      benchmarks
     cli        command line
     fuzz, __main__
@@ -55,6 +57,7 @@ LAYERS: list[set[str]] = [
     {"api"},
     {"tools"},
     {"sweep"},
+    {"fly"},
     {"bench"},
     {"cli"},
     {"fuzz", "__main__"},

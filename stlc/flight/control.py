@@ -1,0 +1,121 @@
+"""Tracking controllers of the closed loop, vectorised over runs (arrays of N states).
+
+* **Multirotors**: the geometric controller on SE(3) of Lee, Leok & McClamroch (2010,
+  "Geometric tracking control of a quadrotor UAV on SE(3)"), with the plan's position,
+  velocity, acceleration and yaw (rate) as feedforward:
+  ``F = −k_x e_x − k_v e_v + m (a_d + g e₃)`` (world), ``e_R = ½ (R_dᵀR − RᵀR_d)^∨``,
+  ``e_Ω = Ω − RᵀR_d Ω_d``, ``M = −k_R e_R − k_Ω e_Ω + Ω × JΩ``.  An under-actuated vehicle
+  (wrench matrix of rank < 6: a quadrotor, a flat hexarotor) takes R_d from F's direction
+  and the plan's yaw and applies the thrust F·Re₃ along its body z; a fully actuated one
+  (the tilted hexarotor) takes R_d from the plan's attitude and applies the whole body
+  force RᵀF.  The wrench is allocated to rotor forces through the pseudo-inverse of the
+  vehicle's rotor matrix (``stlc.vehicles.geometry``) and saturated at the declared force
+  bounds.
+* **Point masses**: a PD tracker with acceleration feedforward,
+  ``a = a_d − k_p e_x − k_d e_v``, clipped to the declared acceleration bounds.
+
+Gains: position ω_p = 4 rad/s, ζ = 0.7 (Lee et al.'s k_x = 16 m, k_v = 5.6 m); attitude
+ω_R = 25 rad/s, ζ = 0.8 per body axis (k_R = J ω_R², k_Ω = 2ζω_R J); point mass ω = 3 rad/s,
+ζ = 0.9.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from stlc.vehicles.geometry import allocation
+
+
+@dataclass(frozen=True)
+class Gains:
+    pos_w: float = 4.0
+    pos_zeta: float = 0.7
+    att_w: float = 25.0
+    att_zeta: float = 0.8
+    pm_w: float = 3.0
+    pm_zeta: float = 0.9
+
+
+def hat(w: np.ndarray) -> np.ndarray:
+    """(N, 3) → (N, 3, 3) skew matrices."""
+    out = np.zeros((w.shape[0], 3, 3))
+    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -w[:, 2], w[:, 1], -w[:, 0]
+    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = w[:, 2], -w[:, 1], w[:, 0]
+    return out
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a × b of (N, 3) arrays (``np.cross`` without its axis handling)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def vee(m: np.ndarray) -> np.ndarray:
+    return np.stack([m[:, 2, 1], m[:, 0, 2], m[:, 1, 0]], axis=-1)
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    return x / np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-9)
+
+
+class Geometric:
+    """Lee et al.'s controller for one multirotor ``v`` (``stlc.vehicles.declared``)."""
+
+    def __init__(self, v, gains: Gains = Gains()):
+        self.m = float(v.mass)
+        self.g = float(v.gravity)
+        self.J = np.array(v.inertia, dtype=float)
+        self.G_f, self.G_tau = allocation(v.rotors, v.c_f, v.c_tau)
+        W = np.vstack([self.G_f, self.G_tau])
+        self.full = np.linalg.matrix_rank(W, tol=1e-8) == 6
+        rows = W if self.full else np.vstack([self.G_f[2:3], self.G_tau])
+        self.alloc = np.linalg.pinv(rows)
+        self.lo, self.hi = float(v.force_min), float(v.force_max)
+        self.kx = self.m * gains.pos_w**2
+        self.kv = self.m * 2 * gains.pos_zeta * gains.pos_w
+        jd = np.diag(self.J)
+        self.kR = jd * gains.att_w**2
+        self.kW = jd * 2 * gains.att_zeta * gains.att_w
+
+    def __call__(self, p, v, R, w, ref) -> np.ndarray:
+        """Rotor force commands (N, n) for measured positions, velocities (N, 3), attitudes
+        (N, 3, 3), body rates (N, 3) and the reference ``ref`` (``Reference.at``)."""
+        e3 = np.array([0.0, 0.0, 1.0])
+        F = -self.kx * (p - ref.pos) - self.kv * (v - ref.vel) + self.m * (ref.acc + self.g * e3)
+        if self.full:
+            Rd = ref.R[None]
+            body_f = np.einsum("nji,nj->ni", R, F)
+        else:
+            b3 = _unit(F)
+            b1c = np.array([np.cos(ref.yaw), np.sin(ref.yaw), 0.0])
+            b2 = _unit(cross(b3, b1c))
+            b1 = cross(b2, b3)
+            Rd = np.stack([b1, b2, b3], axis=-1)
+            thrust = np.einsum("ni,ni->n", F, R[:, :, 2])
+        RdT_R = np.matmul(np.swapaxes(Rd, -1, -2), R)
+        eR = 0.5 * vee(RdT_R - np.transpose(RdT_R, (0, 2, 1)))
+        wd = np.array([0.0, 0.0, ref.yaw_rate])
+        eW = w - np.einsum("nji,j->ni", RdT_R, wd)
+        Jw = w @ self.J.T
+        M = -self.kR * eR - self.kW * eW + cross(w, Jw)
+        wrench = np.concatenate([body_f, M], axis=1) if self.full else \
+            np.concatenate([thrust[:, None], M], axis=1)
+        return np.clip(wrench @ self.alloc.T, self.lo, self.hi)
+
+
+class PointTracker:
+    """The PD tracker of a point mass ``v``: acceleration commands (N, 3)."""
+
+    def __init__(self, v, gains: Gains = Gains()):
+        self.kp = gains.pm_w**2
+        self.kd = 2 * gains.pm_zeta * gains.pm_w
+        self.amax = np.asarray(v.acc_max, dtype=float)
+
+    def __call__(self, p, v, ref) -> np.ndarray:
+        a = ref.acc - self.kp * (p - ref.pos) - self.kd * (v - ref.vel)
+        return np.clip(a, -self.amax, self.amax)
