@@ -36,7 +36,8 @@ DEFAULT_DELTA = 0.01
 def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
              wind=(0.0, 0.0, 0.0), turbulence: str = "none", runs: int | None = None,
              seed: int = 0, noise=(0.0, 0.0), quiet: bool = False,
-             time_limit: float | None = None, sets=(), client=None) -> int:
+             time_limit: float | None = None, sets=(), client=None,
+             pushes: bool = True) -> int:
     from stlc.flight import engine
     from stlc.flight.rigid import FlightSetup
     from stlc.output.compile import summary, write_files
@@ -57,7 +58,7 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
                           start=time.monotonic() - (time.perf_counter() - t0)):
         _, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
-    pushes = tuple(m.simulate.disturbances) if m.simulate else ()
+    pushes = tuple(m.simulate.disturbances) if m.simulate and pushes else ()
     setup = FlightSetup(wind=tuple(wind), turbulence=turbulence, noise_pos=noise[0],
                         noise_vel=noise[1], pushes=pushes)
     t1 = time.perf_counter()
@@ -229,6 +230,8 @@ def add_parser(sub, set_option, seconds) -> None:
                    help="fly N seeded realisations: P(violation), VaR, CVaR of the flown "
                    "robustness")
     y.add_argument("--seed", type=int, default=0)
+    y.add_argument("--no-pushes", action="store_true",
+                   help="fly without the pushes of the mission's simulate block")
     y.add_argument("--time-limit", metavar="SECONDS", type=seconds, default=None,
                    help="stop planning after SECONDS (best verified plan)")
     set_option(y)
@@ -246,7 +249,7 @@ def command(args) -> int:
         return fly_file(args.file, out=args.out, mission=args.mission, wind=args.wind,
                         turbulence=args.turbulence, runs=args.runs, seed=args.seed,
                         noise=args.noise, quiet=args.quiet, time_limit=args.time_limit,
-                        sets=args.sets, client=client)
+                        sets=args.sets, client=client, pushes=not args.no_pushes)
 
     if not args.runs or (args.workers is None and args.scheduler is None):
         return run()

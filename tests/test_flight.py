@@ -1,0 +1,153 @@
+"""``stlc fly`` and its engine (``stlc.flight``), each checked against a value computed
+another way: the exact monitor run on the written ``flown.csv``, the steady-state offset
+of a PD loop under a constant force, the Dryden filters' variance and correlation, the
+Clopper–Pearson bound from scipy, the per-run monitor loop, and local vs Dask runs."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stlc.analysis.trace import read_trace
+from stlc.flight import engine, rigid, wind
+from stlc.pipeline import load
+
+ROOT = Path(__file__).resolve().parent.parent
+CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
+
+
+def _env() -> dict[str, str]:
+    e = {k: v for k, v in os.environ.items() if k != "STLC_DEBUG"}
+    e["PYTHONPATH"] = str(ROOT) + os.pathsep + e.get("PYTHONPATH", "")
+    return e
+
+
+def stlc(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "stlc", *args], cwd=cwd, env=_env(),
+                          capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def flown(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("fly")
+    r = stlc("fly", str(CLIMB), "-o", str(out), "-q", "--runs", "60", "--wind", "3,0,0",
+             "--turbulence", "light", "--seed", "5", cwd=out)
+    assert r.returncode in (0, 3), r.stderr
+    return out
+
+
+def test_fly_writes_the_contract(flown):
+    rec = json.loads((flown / "flight.json").read_text())
+    for key in ("robustness",):
+        assert isinstance(rec["plan"][key], float) and isinstance(rec["flown"][key], float)
+    assert set(rec["flown"]["specs"]) == {"stay", "reach"}
+    assert rec["tracking"]["max_error_m"] >= rec["tracking"]["rms_error_m"] > 0
+    runs = rec["runs"]
+    assert runs["n"] == 60
+    assert 0 <= runs["p_violation"] <= runs["p_violation_upper"] <= 1
+    assert set(runs["var"]) == set(runs["cvar"]) == {"0.7", "0.8", "0.9"}
+    for b in runs["var"]:
+        assert runs["cvar"][b] <= runs["var"][b]  # the worst tail's mean is below its edge
+    # the flown trajectory has trajectory.csv's columns, and its exact robustness is the
+    # monitor's on the written numbers
+    assert (flown / "flown.csv").read_text().splitlines()[0] == \
+        (flown / "trajectory.csv").read_text().splitlines()[0]
+    r = stlc("monitor", str(CLIMB), "--trace", str(flown / "flown.csv"), "--json", cwd=flown)
+    specs = json.loads(r.stdout)["specs"]
+    assert specs["climb"]["robustness"] == pytest.approx(rec["flown"]["robustness"], abs=1e-6)
+    assert specs["reach"]["robustness"] == pytest.approx(rec["flown"]["specs"]["reach"],
+                                                         abs=1e-6)
+    assert {"flight.json", "flown.csv"} <= set(json.loads(
+        (flown / ".stlc-outputs.json").read_text())["files"])
+
+
+def test_the_bound_is_clopper_pearson(flown):
+    from scipy.stats import beta
+
+    runs = json.loads((flown / "flight.json").read_text())["runs"]
+    k, n, d = runs["violations"], runs["n"], runs["delta"]
+    want = 1.0 if k == n else beta.ppf(1 - d, k + 1, n - k)
+    assert runs["p_violation_upper"] == pytest.approx(want, rel=1e-6)
+
+
+@pytest.fixture(scope="module")
+def climb_plan(flown):
+    program = load(str(CLIMB)).program
+    tr = read_trace(flown / "trajectory.csv")
+    return program, program.missions["climb"], tr
+
+
+def test_nominal_flight_tracks_the_plan(climb_plan):
+    program, m, tr = climb_plan
+    b = engine.fly_batch(program, m, tr.times, tr.channels, rigid.FlightSetup(), 1, 0)
+    # the tilted hexarotor's plan is dynamically consistent: millimetres, not centimetres
+    assert b.err_max[0] < 0.02
+    plan = engine.fly_batch(program, m, tr.times, tr.channels, rigid.FlightSetup(), 1, 0)
+    assert plan.robustness["climb"][0] == b.robustness["climb"][0]  # deterministic
+
+
+def test_runs_are_the_same_locally_and_in_chunks(climb_plan):
+    program, m, tr = climb_plan
+    setup = rigid.FlightSetup(wind=(2.0, 0.0, 0.0), turbulence="light", noise_pos=0.01)
+    a = engine.many(program, m, tr.times, tr.channels, setup, 7, seed=3)
+    b = engine.chunk_summary(program, m, tr.times, tr.channels, setup, 7, 3, 1)
+    np.testing.assert_array_equal(a["robustness"], b["robustness"])
+    c = engine.many(program, m, tr.times, tr.channels, setup, 7, seed=4)
+    assert not np.array_equal(a["robustness"], c["robustness"])
+
+
+def test_batched_monitor_equals_the_per_run_loop(climb_plan):
+    from stlc.analysis import monitor_demand
+
+    program, m, tr = climb_plan
+    setup = rigid.FlightSetup(wind=(3.0, 0.0, 0.0), turbulence="moderate")
+    bt = engine.fly_batch(program, m, tr.times, tr.channels, setup, 5, 1)
+    fs = engine.formulas(program, m)
+    for j in range(5):
+        one = {k: np.asarray(x)[j] for k, x in bt.channels.items()}
+        vals = monitor_demand.robustness_many(list(fs.values()), tr.dt, one, program.params,
+                                              n=tr.n)
+        for k, v in zip(fs, vals):
+            assert bt.robustness[k][j] == v
+
+
+def test_steady_wind_offsets_a_hover_by_drag_over_stiffness():
+    """Hovering in a constant 3 m/s wind, the position loop settles where its stiffness
+    k_x = m ω_p² balances the drag ½ ρ C_dA |w|² (no integral action)."""
+    program = load(str(CLIMB)).program
+    v = program.vehicles["uav1"]
+    n = 801  # 8 s at 0.01 s
+    t = np.linspace(0.0, 8.0, n)
+    from stlc.flight.export import Track
+
+    z = np.zeros((n, 3))
+    hover = Track("uav1", t, np.tile([0.0, 0.0, 1.0], (n, 1)), z, z, z, np.zeros(n), z)
+    setup = rigid.FlightSetup(wind=(0.0, 3.0, 0.0))
+    fl = rigid.fly(v, hover, t, setup, 1, np.random.default_rng(0))
+    drag = 0.5 * rigid.AIR_DENSITY * rigid.DRAG_AREA * 9.0
+    kx = v.mass * rigid.Gains().pos_w ** 2
+    assert fl.states[0, -1, 1] == pytest.approx(drag / kx, rel=0.01)
+    assert abs(fl.states[0, -1, 0]) < 1e-6 and abs(fl.states[0, -1, 2] - 1.0) < 1e-3
+
+
+def test_dryden_variance_and_correlation():
+    rng = np.random.default_rng(11)
+    w = wind.Wind((3.0, 0.0, 0.0), "moderate", 2.0, 0.02, 4000, rng)
+    s = np.array([w.sample() for _ in range(400)])  # (steps, runs, 3)
+    np.testing.assert_allclose(s.std(axis=(0, 1)), w.sigma, rtol=0.03)
+    np.testing.assert_allclose(s.mean(axis=(0, 1)), [3.0, 0.0, 0.0], atol=0.15)  # ~4 SE
+    # along the wind: first order, correlation exp(−Δ/τ) with τ = L_u / V
+    h = 10.0  # ft: the standard's lower end (2 m is below it)
+    L_u = h / (0.177 + 0.000823 * h) ** 1.2 * wind.FT
+    lag = 25  # steps of 0.02 s
+    u = s[:, :, 0] - 3.0
+    rho = np.mean(u[:-lag] * u[lag:]) / np.mean(u * u)
+    assert rho == pytest.approx(np.exp(-lag * 0.02 / (L_u / 3.0)), abs=0.03)
+    calm = wind.Wind((1.0, 2.0, 0.0), "none", 1.0, 0.02, 3, rng)
+    np.testing.assert_array_equal(calm.sample(), [[1.0, 2.0, 0.0]] * 3)
