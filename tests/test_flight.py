@@ -130,8 +130,8 @@ def test_steady_wind_offsets_a_hover_by_drag_over_stiffness():
     hover = Track("uav1", t, np.tile([0.0, 0.0, 1.0], (n, 1)), z, z, z, np.zeros(n), z)
     setup = rigid.FlightSetup(wind=(0.0, 3.0, 0.0))
     fl = rigid.fly(v, hover, t, setup, 1, np.random.default_rng(0))
-    drag = 0.5 * rigid.AIR_DENSITY * rigid.DRAG_AREA * 9.0
-    kx = v.mass * rigid.Gains().pos_w ** 2
+    drag = 0.5 * rigid.AIR_DENSITY * setup.drag_area * 9.0
+    kx = v.mass * rigid.Gains().kp_pos[1]
     assert fl.states[0, -1, 1] == pytest.approx(drag / kx, rel=0.01)
     assert abs(fl.states[0, -1, 0]) < 1e-6 and abs(fl.states[0, -1, 2] - 1.0) < 1e-3
 

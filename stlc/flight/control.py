@@ -14,9 +14,9 @@
 * **Point masses**: a PD tracker with acceleration feedforward,
   ``a = a_d − k_p e_x − k_d e_v``, clipped to the declared acceleration bounds.
 
-Gains: position ω_p = 4 rad/s, ζ = 0.7 (Lee et al.'s k_x = 16 m, k_v = 5.6 m); attitude
-ω_R = 25 rad/s, ζ = 0.8 per body axis (k_R = J ω_R², k_Ω = 2ζω_R J); point mass ω = 3 rad/s,
-ζ = 0.9.
+Gains (``Gains``): position ω_p = 4 rad/s, ζ = 0.7 (Lee et al.'s k_x = 16 m, k_v = 5.6 m);
+attitude ω_R = 25 rad/s, ζ = 0.8 per body axis (k_R = J ω_R², k_Ω = 2ζω_R J); point mass
+ω = 3 rad/s, ζ = 0.9.
 """
 
 from __future__ import annotations
@@ -30,10 +30,13 @@ from stlc.vehicles.geometry import allocation
 
 @dataclass(frozen=True)
 class Gains:
-    pos_w: float = 4.0
-    pos_zeta: float = 0.7
-    att_w: float = 25.0
-    att_zeta: float = 0.8
+    """Per unit mass (position: k_x = m·kp_pos, k_v = m·kd_pos, per world axis) and per
+    unit inertia (attitude: k_R = J·kp_att, k_Ω = J·kd_att); the point mass's PD gains."""
+
+    kp_pos: tuple[float, float, float] = (16.0, 16.0, 16.0)  # ω_p = 4 rad/s
+    kd_pos: tuple[float, float, float] = (5.6, 5.6, 5.6)  # ζ = 0.7
+    kp_att: float = 625.0  # ω_R = 25 rad/s
+    kd_att: float = 40.0  # ζ = 0.8
     pm_w: float = 3.0
     pm_zeta: float = 0.9
 
@@ -76,11 +79,11 @@ class Geometric:
         rows = W if self.full else np.vstack([self.G_f[2:3], self.G_tau])
         self.alloc = np.linalg.pinv(rows)
         self.lo, self.hi = float(v.force_min), float(v.force_max)
-        self.kx = self.m * gains.pos_w**2
-        self.kv = self.m * 2 * gains.pos_zeta * gains.pos_w
+        self.kx = self.m * np.asarray(gains.kp_pos, dtype=float)
+        self.kv = self.m * np.asarray(gains.kd_pos, dtype=float)
         jd = np.diag(self.J)
-        self.kR = jd * gains.att_w**2
-        self.kW = jd * 2 * gains.att_zeta * gains.att_w
+        self.kR = jd * gains.kp_att
+        self.kW = jd * gains.kd_att
 
     def __call__(self, p, v, R, w, ref) -> np.ndarray:
         """Rotor force commands (N, n) for measured positions, velocities (N, 3), attitudes

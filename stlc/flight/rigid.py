@@ -4,9 +4,10 @@ wind and sensor noise.
 
 * **Rigid-body multirotor** (the full model of ``stlc.vehicles.dynamics``, with the
   attitude kept as a rotation matrix): ``m v̇ = m g + R G_f ξ + D``, ``J ω̇ = G_τ ξ − ω × Jω``,
-  ``Ṙ = R ω̂``; rotor forces follow their commands with first-order lag ``ROTOR_TAU``
-  (exactly discretised) within the declared bounds; D is the quadratic drag of the air
-  velocity ``½ ρ C_dA |w − v| (w − v)``.  Semi-implicit Euler at ``FlightSetup.dt``
+  ``Ṙ = R ω̂``; rotor forces follow their commands with a first-order lag
+  (exactly discretised, ``FlightSetup.rotor_tau``, 30 ms) within the declared bounds; D is
+  the quadratic drag of the air velocity ``½ ρ C_dA |w − v| (w − v)`` (``drag_area``
+  C_dA = 0.1 m², ρ = 1.225 kg/m³).  Semi-implicit Euler at ``FlightSetup.dt``
   (velocity first, then position; the attitude through Rodrigues' formula, so R stays a
   rotation).
 * **Point mass**: ``ṗ = v``, ``v̇ = a + D/m`` with the tracker's acceleration ``a``
@@ -29,9 +30,7 @@ from stlc.flight import frames
 from stlc.flight.control import Gains, Geometric, PointTracker, cross, hat
 from stlc.flight.wind import GUST_STEP, Wind
 
-ROTOR_TAU = 0.03  # s, rotor force time constant
 AIR_DENSITY = 1.225  # kg/m³
-DRAG_AREA = 0.1  # m², C_d·A of a multirotor body
 POINT_MASS_KG = 1.5  # a point mass without a declared mass
 
 
@@ -44,6 +43,8 @@ class FlightSetup:
     noise_vel: float = 0.0  # m/s
     pushes: tuple = ()  # ``model.Disturbance`` of the flown vehicles
     gains: Gains = field(default_factory=Gains)
+    rotor_tau: float = 0.03  # s, rotor force time constant
+    drag_area: float = 0.1  # m², C_d·A of a multirotor body (point mass: the same)
 
 
 @dataclass
@@ -142,7 +143,7 @@ def fly(v, track, grid: np.ndarray, setup: FlightSetup, runs: int,
     rotor = model_of(v).rotor_forces(v) is not None
     p = np.repeat(track.pos[:1], runs, 0)
     vel = np.repeat(track.vel[:1], runs, 0)
-    drag = 0.5 * AIR_DENSITY * DRAG_AREA
+    drag = 0.5 * AIR_DENSITY * setup.drag_area
     if rotor:
         ctl = Geometric(v, setup.gains)
         m, J = ctl.m, ctl.J
@@ -152,7 +153,7 @@ def fly(v, track, grid: np.ndarray, setup: FlightSetup, runs: int,
         from stlc.vehicles.dynamics import hover_forces
 
         xi = np.repeat(np.asarray(hover_forces(v, check_bounds=False))[None], runs, 0)
-        lag = 1.0 - np.exp(-dt / ROTOR_TAU)
+        lag = 1.0 - np.exp(-dt / setup.rotor_tau)
         gvec = np.array([0.0, 0.0, -ctl.g])
         nx, nu = 12 + xi.shape[1], xi.shape[1]
     else:
@@ -182,7 +183,7 @@ def fly(v, track, grid: np.ndarray, setup: FlightSetup, runs: int,
         f_air = (drag * np.sqrt(np.einsum("ni,ni->n", rel, rel)))[:, None] * rel
         if rotor:
             cmd = ctl(pm, vm, R, w, r)
-            u = (cmd - xi) / ROTOR_TAU
+            u = (cmd - xi) / setup.rotor_tau
             j = rec.get(k)
             if j is not None:
                 states[:, j] = np.concatenate([p, frames.euler(R), vel, w, xi], axis=1)
