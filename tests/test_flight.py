@@ -151,3 +151,21 @@ def test_dryden_variance_and_correlation():
     assert rho == pytest.approx(np.exp(-lag * 0.02 / (L_u / 3.0)), abs=0.03)
     calm = wind.Wind((1.0, 2.0, 0.0), "none", 1.0, 0.02, 3, rng)
     np.testing.assert_array_equal(calm.sample(), [[1.0, 2.0, 0.0]] * 3)
+
+
+def test_runs_on_dask_equal_the_local_runs(climb_plan, monkeypatch):
+    """Two chunks (cut on the client) on a local Dask cluster of two workers (the sweep's
+    client setup) give the numbers of the local loop."""
+    from stlc.sweep.run import _client, _close
+
+    program, m, tr = climb_plan
+    monkeypatch.setattr(engine, "CHUNK", 4)
+    setup = rigid.FlightSetup(wind=(1.0, 1.0, 0.0), turbulence="light")
+    local = engine.many(program, m, tr.times, tr.channels, setup, 7, seed=2)
+    client, cluster = _client(2, None, str(CLIMB))
+    try:
+        dist = engine.many(program, m, tr.times, tr.channels, setup, 7, seed=2, client=client)
+    finally:
+        _close(client, cluster)
+    for k in local:
+        np.testing.assert_array_equal(local[k], dist[k])
