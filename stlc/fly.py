@@ -87,7 +87,8 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
         with open(os.path.join(tmp, "flown.csv"), "w") as fh:
             fh.write(channels_csv(sol.times, flown))
 
-    write_files(outdir, program, m, sol, extra=extra)
+    write_files(outdir, program, m, sol, extra=extra,
+                flight={"record": record, "flown": flown})
     if sol.status != "satisfied":
         summary(sol, outdir)
     ok = sol.status == "satisfied" and record["flown"]["satisfied"]

@@ -169,3 +169,31 @@ def test_runs_on_dask_equal_the_local_runs(climb_plan, monkeypatch):
         _close(client, cluster)
     for k in local:
         np.testing.assert_array_equal(local[k], dist[k])
+
+
+def test_the_report_has_the_flight_section(flown):
+    """The report of `stlc fly` carries the flight section: its tiles and spec table in
+    the page, and in its data the flown path (= flown.csv) and the tracking error at each
+    plan sample (= ‖flown − plan‖ recomputed from the two CSVs)."""
+    import html as htmlmod
+    import re
+
+    page = (flown / "report.html").read_text()
+    assert '<section id="flight"' in page and 'href="#flight"' in page
+    rec = json.loads((flown / "flight.json").read_text())
+    section = page[page.index('<section id="flight"'):]
+    section = section[:section.index("</section>")]
+    assert f"{rec['flown']['robustness']:+.4f}" in section and "P(violation)" in section
+    for name in rec["flown"]["specs"]:
+        assert f"<code>{name}</code>" in section
+    raw = re.search(r'<script type="application/json" id="report-data">(.*?)</script>', page,
+                    re.S).group(1)
+    data = json.loads(htmlmod.unescape(raw) if raw.lstrip().startswith("&") else raw)["flight"]
+    fl, plan = read_trace(flown / "flown.csv"), read_trace(flown / "trajectory.csv")
+    path = data["paths"][0]
+    assert path["vehicle"] == "uav1"
+    np.testing.assert_allclose(path["flown"][0], fl.channels["uav1.pos.x"], rtol=1e-4, atol=1e-6)
+    err = np.linalg.norm(np.stack([fl.channels[f"uav1.pos.{a}"] - plan.channels[f"uav1.pos.{a}"]
+                                   for a in "xyz"]), axis=0)
+    np.testing.assert_allclose(data["error"]["e"], err, rtol=1e-4, atol=1e-6)
+    assert data["runs"]["n"] == 60

@@ -30,9 +30,10 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
 
 
 def write_files(outdir: str, program: model.Program, mission: model.Mission, sol: Solution,
-                extra=None, simulation=None) -> None:
+                extra=None, simulation=None, flight=None) -> None:
     """The compile outputs of ``sol``, plus what ``extra(stage_dir)`` writes, as one set;
-    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section."""
+    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section,
+    and so does ``flight`` (``stlc fly``'s record and flown channels)."""
     from stlc.output.directory import staged
     from stlc.output.report import write_report
 
@@ -64,7 +65,7 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
                 save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
         write_report(os.path.join(tmp, "report.html"), program, mission, sol,
-                     simulation=simulation)
+                     simulation=simulation, flight=flight)
 
 
 def summary(sol: Solution, outdir: str) -> None:
