@@ -34,8 +34,8 @@ DEFAULT_DELTA = 0.01
 
 
 def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
-             wind=(0.0, 0.0, 0.0), turbulence: str = "none", runs: int | None = None,
-             seed: int = 0, noise=(0.0, 0.0), quiet: bool = False,
+             wind=None, turbulence: str | None = None, runs: int | None = None,
+             seed: int = 0, noise=None, quiet: bool = False,
              time_limit: float | None = None, sets=(), client=None,
              pushes: bool = True) -> int:
     from stlc.flight import engine
@@ -59,8 +59,14 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
         _, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
     pushes = tuple(m.simulate.disturbances) if m.simulate and pushes else ()
-    setup = FlightSetup(wind=tuple(wind), turbulence=turbulence, noise_pos=noise[0],
-                        noise_vel=noise[1], pushes=pushes)
+    # the command line's wind, turbulence and noise replace the `simulate` block's
+    air = m.simulate.wind if m.simulate and m.simulate.wind else None
+    sensors = m.simulate.noise if m.simulate and m.simulate.noise else None
+    wind = wind if wind is not None else air.velocity if air else (0.0, 0.0, 0.0)
+    turbulence = turbulence or (air.turbulence if air else "none")
+    noise = noise if noise is not None else (sensors.pos, sensors.vel) if sensors else (0, 0)
+    setup = FlightSetup(wind=tuple(float(x) for x in wind), turbulence=turbulence,
+                        noise_pos=float(noise[0]), noise_vel=float(noise[1]), pushes=pushes)
     t1 = time.perf_counter()
     seeded = engine.fly_batch(program, m, sol.times, sol.channels, setup, 1, seed, chunk=0)
     record = _record(m, sol, seeded, setup, seed, pushes)
@@ -221,11 +227,11 @@ def add_parser(sub, set_option, seconds) -> None:
     y.add_argument("--mission", metavar="NAME", default=None)
     y.add_argument("-o", "--out", metavar="OUTDIR", default=None)
     y.add_argument("-q", "--quiet", action="store_true", help="no progress output")
-    y.add_argument("--wind", metavar="VX,VY,VZ", type=_triple, default=(0.0, 0.0, 0.0),
-                   help="steady wind in m/s (ENU)")
+    y.add_argument("--wind", metavar="VX,VY,VZ", type=_triple, default=None,
+                   help="steady wind in m/s (ENU); replaces the simulate block's `wind`")
     y.add_argument("--turbulence", choices=("none", "light", "moderate", "severe"),
-                   default="none", help="Dryden turbulence (MIL-F-8785C) level")
-    y.add_argument("--noise", metavar="POS,VEL", type=_pair, default=(0.0, 0.0),
+                   default=None, help="Dryden turbulence (MIL-F-8785C) level")
+    y.add_argument("--noise", metavar="POS,VEL", type=_pair, default=None,
                    help="position (m) and velocity (m/s) sensor noise, standard deviations")
     y.add_argument("--runs", metavar="N", type=_count, default=None,
                    help="fly N seeded realisations: P(violation), VaR, CVaR of the flown "

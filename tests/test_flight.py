@@ -197,3 +197,44 @@ def test_the_report_has_the_flight_section(flown):
                                    for a in "xyz"]), axis=0)
     np.testing.assert_allclose(data["error"]["e"], err, rtol=1e-4, atol=1e-6)
     assert data["runs"]["n"] == 60
+
+
+AIR = """
+  simulate {
+    wind { velocity = (3, 0, 0) m/s; turbulence = light }
+    noise { pos = 0.01 m; vel = 0.02 m/s }
+  }
+}
+"""
+
+
+def _with_air(text: str) -> str:
+    return CLIMB.read_text().rstrip().removesuffix("}") + text
+
+
+def test_wind_and_noise_are_declared_in_the_simulate_block(tmp_path):
+    from stlc.diagnostics import StlcError
+
+    f = tmp_path / "air.stl"
+    f.write_text(_with_air(AIR))
+    sim = load(str(f)).program.missions["climb"].simulate
+    assert sim.wind.velocity == (3.0, 0.0, 0.0) and sim.wind.turbulence == "light"
+    assert (sim.noise.pos, sim.noise.vel) == (0.01, 0.02)
+    bad = tmp_path / "bad.stl"
+    bad.write_text(_with_air(AIR.replace("light", "lite").replace("0.01 m", "0.01 s")))
+    with pytest.raises(StlcError) as e:
+        load(str(bad))
+    got = sorted((d.code, d.message) for d in e.value.diagnostics)
+    assert [c for c, _ in got] == ["STL108", "STL204"]
+    assert "turbulence` is one of" in got[0][1] and e.value.diagnostics[0].help
+    bad.write_text(_with_air(AIR.replace("wind {", "wind uav1 {")))
+    with pytest.raises(StlcError) as e:
+        load(str(bad))
+    assert [d.code for d in e.value.diagnostics] == ["STL108"]
+    assert "applies to every vehicle" in e.value.diagnostics[0].message
+    # the command line replaces the file's wind, the file's turbulence and noise stay
+    r = stlc("fly", str(f), "-o", str(tmp_path / "out"), "-q", "--wind", "0,1,0", cwd=tmp_path)
+    assert r.returncode in (0, 3), r.stderr
+    setup = json.loads((tmp_path / "out" / "flight.json").read_text())["setup"]
+    assert setup["wind_mps"] == [0.0, 1.0, 0.0] and setup["turbulence"] == "light"
+    assert setup["noise"] == {"pos_m": 0.01, "vel_mps": 0.02}

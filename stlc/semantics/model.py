@@ -166,12 +166,35 @@ class HumanMove:
 
 
 @dataclass(frozen=True, slots=True)
+class FlightWind:
+    """``wind { velocity = (3, 0, 0) m/s; turbulence = light }``: the air ``stlc fly``
+    flies through — a steady wind (m/s, ENU) and a Dryden turbulence level."""
+
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    turbulence: str = "none"
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class SensorNoise:
+    """``noise { pos = 0.02 m; vel = 0.05 m/s }``: standard deviations of the position and
+    velocity errors the tracking controller of ``stlc fly`` sees."""
+
+    pos: float = 0.0
+    vel: float = 0.0
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
 class SimulateConfig:
-    """A mission's ``simulate { ... }`` block: the events of ``stlc simulate``."""
+    """A mission's ``simulate { ... }`` block: the events of ``stlc simulate`` (and
+    ``stlc fly``'s pushes), and the wind and sensor noise of ``stlc fly``."""
 
     disturbances: tuple[Disturbance, ...] = ()
     failures: tuple[Failure, ...] = ()
     moves: tuple[HumanMove, ...] = ()
+    wind: FlightWind | None = None
+    noise: SensorNoise | None = None
 
 
 @dataclass(frozen=True, slots=True)
