@@ -238,3 +238,69 @@ def test_wind_and_noise_are_declared_in_the_simulate_block(tmp_path):
     setup = json.loads((tmp_path / "out" / "flight.json").read_text())["setup"]
     assert setup["wind_mps"] == [0.0, 1.0, 0.0] and setup["turbulence"] == "light"
     assert setup["noise"] == {"pos_m": 0.01, "vel_mps": 0.02}
+
+
+HUMAN = """
+scenario {
+  human operator {
+    pos = (1.1, 0, 0) m
+    region zone = box((-0.2, -0.2, 0), (0.2, 0.2, 2.5)) m
+  }
+}
+"""
+LEVELS = """
+  spec clear = always[0, 3] (uav1.pos not in operator.zone)
+  risk {
+    K = 50; beta = [0.9]; delta = 0.05
+    require p_violation <= 1
+    require var(0.9) >= 5 m
+    case wide { operator.pos ~ normal((1.1, 0, 0) m, diag(0.2, 0.2, 0) m^2) }
+  }
+}
+"""
+
+
+def test_judge_levels_against_the_order_statistics():
+    from scipy.stats import beta as beta_dist
+
+    from stlc.semantics.model import RiskLevel
+
+    rho = np.random.default_rng(0).normal(0.1, 0.2, 200)
+    r = np.sort(rho)
+    levels = (RiskLevel("var", 0.8, ">=", 0.0), RiskLevel("cvar", 0.9, ">=", -0.5),
+              RiskLevel("p_violation", None, "<=", 0.4))
+    got = engine.judge_levels(levels, rho, 0.01)
+    assert got[0]["value"] == r[200 - 160]  # r_(K − ⌈βK⌉ + 1), 1-based
+    assert got[1]["value"] == pytest.approx(r[:20].mean())  # the worst 10 %
+    k = int(np.count_nonzero(rho <= 0))
+    assert got[2]["value"] == pytest.approx(beta_dist.ppf(0.99, k + 1, 200 - k), rel=1e-6)
+    assert [g["holds"] for g in got] == [r[40] >= 0, r[:20].mean() >= -0.5,
+                                         got[2]["value"] <= 0.4]
+
+
+def test_risk_levels_judge_the_flown_runs(tmp_path):
+    f = tmp_path / "levels.stl"
+    f.write_text(_levels_file())
+    program = load(str(f)).program
+    lv = program.missions["climb"].risk.levels
+    assert [(x.measure, x.beta, x.op, x.bound) for x in lv] == [
+        ("p_violation", None, "<=", 1.0), ("var", 0.9, ">=", 5.0)]
+    r = stlc("fly", str(f), "-o", str(tmp_path / "out"), "-q", "--runs", "12", cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    assert "risk level `var(0.9) >= 5 m`" in r.stderr and "does not hold" in r.stderr
+    runs = json.loads((tmp_path / "out" / "flight.json").read_text())["runs"]
+    assert runs["uncertain"] == ["operator.pos.x", "operator.pos.y", "operator.pos.z"]
+    assert [x["holds"] for x in runs["levels"]] == [True, False]
+    # the runs draw the operator: `clear` varies with the draw, beyond the wind-free flight
+    assert runs["robustness"]["max"] > runs["robustness"]["min"]
+
+
+def _levels_file() -> str:
+    """hexa_climb with an operator standing on its path, a spec keeping clear of them and
+    a risk block with two levels."""
+    text = CLIMB.read_text()
+    i = text.index("scenario {") + len("scenario {")
+    human = HUMAN.strip().removeprefix("scenario {").rstrip().removesuffix("}")
+    text = text[:i] + human + text[i:]
+    text = text.replace("require stay and reach", "require stay and reach and clear")
+    return text.rstrip().removesuffix("}") + LEVELS

@@ -68,12 +68,31 @@ def _flown_channels(v, fl: rigid.Flown, plan: dict) -> dict[str, np.ndarray]:
     return out
 
 
+def uncertainty(program, mission) -> list:
+    """The uncertain scenario parameters a run draws (the human's pose): the scenario's
+    distributions overridden by the mission's first risk case, as the risk pass merges
+    them (``stlc.analysis.sampling``)."""
+    from stlc.analysis.sampling import merge_distributions, scenario_distributions
+
+    base = scenario_distributions(program.scenario)
+    case = mission.risk.cases[0].distributions if mission.risk and mission.risk.cases else ()
+    return merge_distributions(base, case)
+
+
 def fly_batch(program, mission, times: np.ndarray, plan: dict, setup: rigid.FlightSetup,
-              runs: int, seed: int, chunk: int = 0) -> Batch:
-    """``runs`` flights of the plan (``times``, ``plan`` channels), judged."""
+              runs: int, seed: int, chunk: int = 0, uncertain: bool = False) -> Batch:
+    """``runs`` flights of the plan (``times``, ``plan`` channels), judged; with
+    ``uncertain`` each run also draws the scenario's uncertain parameters (``uncertainty``)
+    and is judged with its own draw."""
     from stlc.analysis import monitor_demand
 
     rng = np.random.default_rng([seed, chunk])
+    params = program.params
+    dists = uncertainty(program, mission) if uncertain else []
+    if dists:
+        from stlc.analysis.sampling import sample_params
+
+        params = sample_params(program.params, dists, runs, int(rng.integers(2**31)))
     channels: dict[str, np.ndarray] = {}
     emax, esq = np.zeros(runs), np.zeros(runs)
     drones = [d for d in mission.vehicles if f"{d}.pos.x" in plan]
@@ -89,7 +108,7 @@ def fly_batch(program, mission, times: np.ndarray, plan: dict, setup: rigid.Flig
         channels.setdefault(c, np.broadcast_to(np.asarray(x, float), (runs, len(times))))
     fs = formulas(program, mission)
     dt = float(times[1] - times[0]) if len(times) > 1 else mission.step
-    vals = monitor_demand.robustness_many(list(fs.values()), dt, channels, program.params,
+    vals = monitor_demand.robustness_many(list(fs.values()), dt, channels, params,
                                           n=len(times))
     rob = {k: np.broadcast_to(np.asarray(x, float), (runs,)).copy() for k, x in zip(fs, vals)}
     return Batch(channels, rob, emax, np.sqrt(esq / max(len(drones), 1)))
@@ -101,26 +120,27 @@ def _with_pushes(setup: rigid.FlightSetup, pushes: tuple) -> rigid.FlightSetup:
     return replace(setup, pushes=pushes)
 
 
-def chunk_summary(program, mission, times, plan, setup, runs: int, seed: int, chunk: int
-                  ) -> dict[str, np.ndarray]:
+def chunk_summary(program, mission, times, plan, setup, runs: int, seed: int, chunk: int,
+                  uncertain: bool = True) -> dict[str, np.ndarray]:
     """A chunk of ``--runs``, reduced to what the statistics need (for Dask workers: no
     channels travel back)."""
-    b = fly_batch(program, mission, times, plan, setup, runs, seed, chunk)
+    b = fly_batch(program, mission, times, plan, setup, runs, seed, chunk, uncertain)
     return {"robustness": b.robustness[mission.name], "err_max": b.err_max,
             "err_rms": b.err_rms}
 
 
-def many(program, mission, times, plan, setup, runs: int, seed: int, client=None
-         ) -> dict[str, np.ndarray]:
+def many(program, mission, times, plan, setup, runs: int, seed: int, client=None,
+         uncertain: bool = True) -> dict[str, np.ndarray]:
     """``runs`` flights in chunks of ``CHUNK`` (on ``client``'s Dask workers when given),
     concatenated in chunk order."""
     sizes = [min(CHUNK, runs - s) for s in range(0, runs, CHUNK)]
     if client is None:
-        parts = [chunk_summary(program, mission, times, plan, setup, n, seed, c)
+        parts = [chunk_summary(program, mission, times, plan, setup, n, seed, c, uncertain)
                  for c, n in enumerate(sizes, start=1)]
     else:
         futures = [client.submit(chunk_summary, program, mission, times, plan, setup, n,
-                                 seed, c, pure=False) for c, n in enumerate(sizes, start=1)]
+                                 seed, c, uncertain, pure=False)
+                   for c, n in enumerate(sizes, start=1)]
         parts = client.gather(futures)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
@@ -140,3 +160,25 @@ def run_statistics(rho: np.ndarray, betas, delta: float) -> dict:
             "cvar": {b: d["value"] for b, d in s["cvar"].items()},
             "var_bounds": s["var"], "cvar_bounds": s["cvar"],
             "robustness": {"mean": s["mean"], "min": s["min"], "max": s["max"]}}
+
+
+def judge_levels(levels, rho: np.ndarray, delta: float) -> list[dict]:
+    """The mission's risk levels (``model.RiskLevel``) judged on robustness samples:
+    VaR/CVaR by their empirical value at the level's β, P(violation) by its one-sided
+    Clopper–Pearson upper bound at 1 − δ (so a level that holds is a bound that holds
+    with confidence 1 − δ)."""
+    from stlc.analysis import risk_measures as rm
+
+    ops = {">=": np.greater_equal, ">": np.greater, "<=": np.less_equal, "<": np.less}
+    out = []
+    for lv in levels:
+        if lv.measure == "p_violation":
+            value = rm.p_violation(rho, delta)["upper"]
+        elif lv.measure == "var":
+            value = rm.var_bounds(rho, lv.beta, delta)["value"]
+        else:
+            value = rm.cvar_bounds(rho, lv.beta, delta)["value"]
+        out.append({"level": lv.text, "line": lv.span.line, "measure": lv.measure,
+                    "beta": lv.beta, "op": lv.op, "bound": lv.bound, "value": float(value),
+                    "holds": bool(ops[lv.op](value, lv.bound))})
+    return out

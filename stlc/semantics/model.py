@@ -109,12 +109,29 @@ class RiskCase:
 
 
 @dataclass(frozen=True, slots=True)
+class RiskLevel:
+    """``require cvar(0.9) >= 0.02 m`` in a ``risk`` block: a level the distribution of the
+    robustness must meet.  ``measure``: ``var`` | ``cvar`` (at ``beta``, in robustness
+    terms: the level kept with probability β / the mean of the worst 1 − β) or
+    ``p_violation`` (P(ρ ≤ 0), judged by its Clopper–Pearson upper bound); ``op``:
+    ``>=`` ``>`` ``<=`` ``<``."""
+
+    measure: str
+    beta: float | None
+    op: str
+    bound: float
+    text: str = ""  # as written, for messages
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
 class RiskConfig:
     cases: tuple[RiskCase, ...]
     K: int = 15000
     betas: tuple[float, ...] = (0.7, 0.8, 0.9)
     delta: float = 0.01
     seed: int = 0
+    levels: tuple[RiskLevel, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
