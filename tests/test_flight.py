@@ -304,3 +304,19 @@ def _levels_file() -> str:
     text = text[:i] + human + text[i:]
     text = text.replace("require stay and reach", "require stay and reach and clear")
     return text.rstrip().removesuffix("}") + LEVELS
+
+
+def test_compile_judges_the_risk_levels_per_case(tmp_path):
+    """The risk pass of `stlc compile` judges the levels on each case's exact robustness
+    of the requirement (risk.json), and a level not met exits 3 with the level named."""
+    f = tmp_path / "levels.stl"
+    f.write_text(_levels_file())
+    r = stlc("compile", str(f), "-o", str(tmp_path / "out"), "-q", cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    assert "risk level `var(0.9) >= 5 m` (line" in r.stderr and "case `wide`" in r.stderr
+    risk = json.loads((tmp_path / "out" / "risk.json").read_text())
+    got = risk["levels"]["wide"]
+    samples = np.load(tmp_path / "out" / "risk_samples.npz")
+    rho = np.sort(samples["wide/exact/requirement"])
+    assert got[1]["value"] == rho[len(rho) - int(np.ceil(0.9 * len(rho)))]
+    assert [g["holds"] for g in got] == [True, False]

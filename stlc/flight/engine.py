@@ -22,7 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stlc.analysis.risk_levels import judge_levels
 from stlc.flight import export, frames, rigid
+
+__all__ = ["Batch", "fly_batch", "judge_levels", "many", "run_statistics", "uncertainty"]
 
 CHUNK = 500
 
@@ -160,25 +163,3 @@ def run_statistics(rho: np.ndarray, betas, delta: float) -> dict:
             "cvar": {b: d["value"] for b, d in s["cvar"].items()},
             "var_bounds": s["var"], "cvar_bounds": s["cvar"],
             "robustness": {"mean": s["mean"], "min": s["min"], "max": s["max"]}}
-
-
-def judge_levels(levels, rho: np.ndarray, delta: float) -> list[dict]:
-    """The mission's risk levels (``model.RiskLevel``) judged on robustness samples:
-    VaR/CVaR by their empirical value at the level's β, P(violation) by its one-sided
-    Clopper–Pearson upper bound at 1 − δ (so a level that holds is a bound that holds
-    with confidence 1 − δ)."""
-    from stlc.analysis import risk_measures as rm
-
-    ops = {">=": np.greater_equal, ">": np.greater, "<=": np.less_equal, "<": np.less}
-    out = []
-    for lv in levels:
-        if lv.measure == "p_violation":
-            value = rm.p_violation(rho, delta)["upper"]
-        elif lv.measure == "var":
-            value = rm.var_bounds(rho, lv.beta, delta)["value"]
-        else:
-            value = rm.cvar_bounds(rho, lv.beta, delta)["value"]
-        out.append({"level": lv.text, "line": lv.span.line, "measure": lv.measure,
-                    "beta": lv.beta, "op": lv.op, "bound": lv.bound, "value": float(value),
-                    "holds": bool(ops[lv.op](value, lv.bound))})
-    return out

@@ -98,6 +98,17 @@ def summary(sol: Solution, outdir: str) -> None:
                       file=sys.stderr)
 
 
+def risk_levels_failed(sol: Solution) -> bool:
+    """Print each risk level of the mission that a risk case does not meet (``risk.json``'s
+    ``levels``); True if there is one (``stlc compile`` then exits 3)."""
+    failed = [(case, lv) for case, lvs in ((sol.risk or {}).get("levels") or {}).items()
+              for lv in lvs if not lv["holds"]]
+    for case, lv in failed:
+        print(f"  risk level `{lv['level']}` (line {lv['line']}) does not hold in case "
+              f"`{case}`: {lv['measure']} = {lv['value']:.4g}", file=sys.stderr)
+    return bool(failed)
+
+
 def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,
                    quiet: bool):
     """The watchdog's writer (``stlc.deadline``): the fallback plan, verified and written
