@@ -402,9 +402,7 @@ def _risk(ck: Context, b: ast.Block) -> model.RiskConfig | None:
             ck.d.error("STL104", "a `risk` block needs a `case` or an uncertain human pose",
                        rb.span, "add `case NAME { operator.pos ~ normal(mean, cov) }`")
         cases.append(model.RiskCase("nominal", (), rb.span))
-    from stlc.semantics.check.risklevel import risk_levels
-
-    return model.RiskConfig(tuple(cases), K, tuple(betas), delta, seed, risk_levels(ck, rb))
+    return model.RiskConfig(tuple(cases), K, tuple(betas), delta, seed)
 
 
 def _replan(ck: Context, b: ast.Block, specs: dict, step: float | None = None

@@ -27,6 +27,18 @@ _HELP = ("write `require cvar(0.9) >= 0 m`, `require var(0.8) >= 0.01 m` or "
          "`require p_violation <= 0.05`")
 
 
+def with_levels(ck: Context, b: ast.Block, risk: model.RiskConfig | None
+                ) -> model.RiskConfig | None:
+    """The mission's checked risk block (``mission``) with the levels of its ``risk``
+    block ``b`` added."""
+    blocks = [m for m in b.members if isinstance(m, ast.Block) and m.kind == "risk"]
+    if risk is None or not blocks:
+        return risk
+    from dataclasses import replace
+
+    return replace(risk, levels=risk_levels(ck, blocks[0]))
+
+
 def risk_levels(ck: Context, rb: ast.Block) -> tuple[model.RiskLevel, ...]:
     out = []
     for m in rb.members:
