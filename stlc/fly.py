@@ -39,7 +39,7 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
              wind=None, turbulence: str | None = None, runs: int | None = None,
              seed: int = 0, noise=None, quiet: bool = False,
              time_limit: float | None = None, sets=(), client=None,
-             pushes: bool = True, uncertain: bool = True) -> int:
+             pushes: bool = True, uncertain: bool = True, replan: bool = True) -> int:
     from stlc.flight import engine
     from stlc.flight.rigid import FlightSetup
     from stlc.output.compile import summary, write_files
@@ -58,7 +58,7 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
     preflight(outdir, mission_span(path, m))
     with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
                           start=time.monotonic() - (time.perf_counter() - t0)):
-        _, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
+        problem, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
     pushes = tuple(m.simulate.disturbances) if m.simulate and pushes else ()
     # the command line's wind, turbulence and noise replace the `simulate` block's
@@ -70,12 +70,22 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
     setup = FlightSetup(wind=tuple(float(x) for x in wind), turbulence=turbulence,
                         noise_pos=float(noise[0]), noise_vel=float(noise[1]), pushes=pushes)
     t1 = time.perf_counter()
-    seeded = engine.fly_batch(program, m, sol.times, sol.channels, setup, 1, seed, chunk=0)
-    record = _record(m, sol, seeded, setup, seed, pushes)
+    sim = None
+    reference = sol.channels
+    if pushes and replan and m.replan is not None:  # the replans decide the reference
+        sim = _replanned(problem, sol, program, m, pushes)
+        reference = {k: sim.executed[k] for k in sol.channels if k in sim.executed}
+    seeded = engine.fly_batch(program, m, sol.times, reference, setup, 1, seed, chunk=0)
+    record = _record(m, sol, seeded, setup, seed, pushes, reference)
+    if sim is not None:
+        record["replan"] = _replan_record(sim)
+        record["notes"] = ["the reference after each push is the event-triggered replan's "
+                           "(paper A §4.4, decided on the open-loop prediction as `stlc "
+                           "simulate` does); the controller tracks it"]
     record["timing"] = {"fly_s": time.perf_counter() - t1}
     if runs:
         t2 = time.perf_counter()
-        many = engine.many(program, m, sol.times, sol.channels, setup, runs, seed,
+        many = engine.many(program, m, sol.times, reference, setup, runs, seed,
                            client=client, uncertain=uncertain)
         cfg = m.risk
         record["runs"] = {
@@ -99,7 +109,7 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
         with open(os.path.join(tmp, "flown.csv"), "w") as fh:
             fh.write(channels_csv(sol.times, flown))
 
-    write_files(outdir, program, m, sol, extra=extra,
+    write_files(outdir, program, m, sol, extra=extra, simulation=sim,
                 flight={"record": record, "flown": flown})
     if sol.status != "satisfied":
         summary(sol, outdir)
@@ -115,14 +125,54 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
     return EXIT_OK if ok else EXIT_UNSAT
 
 
+def _replanned(problem, sol, program, m, pushes):
+    """Event-triggered replanning through the pushes (``stlc.replan.disturb``, the flight
+    loop of ``stlc simulate``): its executed trajectory, nominal plan and accepted
+    replanned segments, is the reference the controller then tracks."""
+    from dataclasses import replace
+
+    from stlc.backends.segment import SegmentBackend
+    from stlc.replan.disturb import simulate_disturbances
+    from stlc.replan.explain import default_waypoint_period
+    from stlc.semantics import model
+    from stlc.vehicles import model_of
+
+    cfg = m.replan or model.ReplanConfig()
+    if "waypoint_period" not in cfg.given and m.vehicles:
+        acc = np.min([model_of(program.vehicles[v]).kinematic_limits(program.vehicles[v])[1]
+                      for v in m.vehicles], axis=0)
+        cfg = replace(cfg, waypoint_period=default_waypoint_period(cfg.threshold, acc, m.step))
+    with deadline.bounded():
+        try:
+            sim = simulate_disturbances(problem, sol, list(pushes), cfg,
+                                        segment=SegmentBackend)
+        except ValueError as e:  # the replanning modules' input errors (subclasses)
+            if type(e) is ValueError:
+                raise
+            raise StlcError([Diagnostic("STL401", f"cannot replan `{m.name}`: {e}", m.span,
+                                        "fly it with --no-replan")]) from None
+    sim.kept = tuple(cfg.specs) or ("mission",)
+    return sim
+
+
+def _replan_record(sim) -> dict:
+    trig = sim.triggered
+    return {"replans": len(trig), "accepted": sum(1 for e in trig if e.accepted),
+            "kept": list(sim.kept),
+            "open_loop_robustness": {k: json_number(v)
+                                     for k, v in sim.executed_robustness.items()}}
+
+
 def _stats(x: np.ndarray) -> dict:
     return {"mean": float(np.mean(x)), "p95": float(np.quantile(x, 0.95)),
             "max": float(np.max(x))}
 
 
-def _record(m, sol, b, setup, seed: int, pushes) -> dict:
-    plan_pos = {d: np.stack([sol.channels[f"{d}.pos.{a}"] for a in "xyz"], axis=1)
-                for d in m.vehicles if f"{d}.pos.x" in sol.channels}
+def _record(m, sol, b, setup, seed: int, pushes, reference: dict) -> dict:
+    """flight.json; the tracking error is against ``reference`` (the plan, or the plan
+    with its replanned segments)."""
+    plan_pos = {d: np.stack([reference[f"{d}.pos.{a}"] for a in "xyz"], axis=1)
+                for d in m.vehicles if f"{d}.pos.x" in reference}
     err = np.zeros(len(sol.times))
     for d, p in plan_pos.items():
         flown = np.stack([b.channels[f"{d}.pos.{a}"][0] for a in "xyz"], axis=1)
@@ -146,8 +196,7 @@ def _record(m, sol, b, setup, seed: int, pushes) -> dict:
                               "velocity": list(d.velocity)} for d in pushes],
                   "frames": "ENU world, FLU body, ZYX Euler (stlc.flight.frames)"},
         "notes": (["the pushes are flown by the tracking controller back onto the nominal "
-                   "plan (no replanning; `stlc simulate` replans open loop)"]
-                  if pushes else []),
+                   "plan (no replanning)"] if pushes else []),
     }
 
 
@@ -250,6 +299,8 @@ def add_parser(sub, set_option, seconds) -> None:
     y.add_argument("--seed", type=int, default=0)
     y.add_argument("--no-pushes", action="store_true",
                    help="fly without the pushes of the mission's simulate block")
+    y.add_argument("--no-replan", action="store_true",
+                   help="after a push, track the nominal plan (no event-triggered replans)")
     y.add_argument("--fixed-scenario", action="store_true",
                    help="--runs keep the scenario's nominal human pose (only the air and "
                    "the sensors vary)")
@@ -271,7 +322,7 @@ def command(args) -> int:
                         turbulence=args.turbulence, runs=args.runs, seed=args.seed,
                         noise=args.noise, quiet=args.quiet, time_limit=args.time_limit,
                         sets=args.sets, client=client, pushes=not args.no_pushes,
-                        uncertain=not args.fixed_scenario)
+                        uncertain=not args.fixed_scenario, replan=not args.no_replan)
 
     if not args.runs or (args.workers is None and args.scheduler is None):
         return run()

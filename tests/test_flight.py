@@ -320,3 +320,28 @@ def test_compile_judges_the_risk_levels_per_case(tmp_path):
     rho = np.sort(samples["wide/exact/requirement"])
     assert got[1]["value"] == rho[len(rho) - int(np.ceil(0.9 * len(rho)))]
     assert [g["holds"] for g in got] == [True, False]
+
+
+PUSHED = """
+  replan { threshold = 0.2 m; keep = [stay] }
+  simulate { disturb uav1 { time = 1 s; displacement = (0, 0.4, 0) m } }
+}
+"""
+
+
+def test_a_push_is_replanned_and_the_controller_tracks_the_replan(tmp_path):
+    f = tmp_path / "pushed.stl"
+    f.write_text(CLIMB.read_text().rstrip().removesuffix("}") + PUSHED)
+    r = stlc("fly", str(f), "-o", str(tmp_path / "out"), "-q", cwd=tmp_path)
+    assert r.returncode in (0, 3), r.stderr
+    rec = json.loads((tmp_path / "out" / "flight.json").read_text())
+    assert rec["replan"]["replans"] >= 1 and rec["replan"]["accepted"] >= 1
+    assert rec["setup"]["pushes"][0]["displacement"] == [0.0, 0.4, 0.0]
+    assert rec["flown"]["specs"]["stay"] > 0  # the kept spec holds when flown
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert '<section id="replan"' in page and '<section id="flight"' in page
+    # the flown trajectory really was pushed: 0.4 m off the plan right after t = 1 s
+    fl, plan = read_trace(tmp_path / "out" / "flown.csv"), read_trace(
+        tmp_path / "out" / "trajectory.csv")
+    k = int(np.searchsorted(fl.times, 1.0 + 1e-9))
+    assert fl.channels["uav1.pos.y"][k] - plan.channels["uav1.pos.y"][k] > 0.3
