@@ -10,7 +10,8 @@
   (the tilted hexarotor) takes R_d from the plan's attitude and applies the whole body
   force RᵀF.  The wrench is allocated to rotor forces through the pseudo-inverse of the
   vehicle's rotor matrix (``stlc.vehicles.geometry``) and saturated at the declared force
-  bounds.
+  bounds; for a fully actuated vehicle with priorities — the feedforward force and the
+  moment first, then the largest part of the position feedback force the bounds allow.
 * **Point masses**: a PD tracker with acceleration feedforward,
   ``a = a_d − k_p e_x − k_d e_v``, clipped to the declared acceleration bounds.
 
@@ -106,9 +107,22 @@ class Geometric:
         eW = w - np.einsum("nji,j->ni", RdT_R, wd)
         Jw = w @ self.J.T
         M = -self.kR * eR - self.kW * eW + cross(w, Jw)
-        wrench = np.concatenate([body_f, M], axis=1) if self.full else \
-            np.concatenate([thrust[:, None], M], axis=1)
-        return np.clip(wrench @ self.alloc.T, self.lo, self.hi)
+        if not self.full:
+            wrench = np.concatenate([thrust[:, None], M], axis=1)
+            return np.clip(wrench @ self.alloc.T, self.lo, self.hi)
+        # prioritised allocation: the feedforward force and the moment first, then as much
+        # of the position feedback force as the rotor bounds leave (a saturated wrench
+        # would otherwise lose the attitude, yaw first)
+        ff = self.m * (ref.acc + self.g * e3)
+        zero = np.zeros_like(M)
+        base = np.concatenate([np.einsum("nji,j->ni", R, ff), M], axis=1) @ self.alloc.T
+        extra = np.concatenate([body_f - np.einsum("nji,j->ni", R, ff), zero],
+                               axis=1) @ self.alloc.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(extra > 0, (self.hi - base) / extra,
+                            np.where(extra < 0, (self.lo - base) / extra, np.inf))
+        scale = np.clip(np.min(room, axis=1), 0.0, 1.0)
+        return np.clip(base + scale[:, None] * extra, self.lo, self.hi)
 
 
 class PointTracker:
