@@ -150,7 +150,7 @@ def _parser() -> argparse.ArgumentParser:
     w.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="each instance's limit: a stopped instance is a `stopped` row")
 
-    b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
+    b = sub.add_parser("bench", help="benchmarks (monitor, compile, suite)")
     b.add_argument("args", nargs=argparse.REMAINDER)
 
     f = sub.add_parser("fmt", help="format .stl files in place (`-`: stdin to stdout)")

@@ -37,7 +37,7 @@ def source_lines(text: str) -> list[str]:
     return lines if text else []
 
 
-#: every code the tool can emit, with a one-line description (README lists these)
+#: every code the tool can emit, with a one-line description (docs/errors.md lists these)
 CODES: dict[str, str] = {
     # syntax
     "STL001": "unexpected character",

@@ -170,7 +170,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
             span = getattr(getattr(e, "disturbance", None), "span", None)
             raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}",
                                         span if span is not None and span.known else m.span,
-                                        "see `stlc simulate` in the README")]) from None
+                                        "see `stlc simulate` in docs/cli.md")]) from None
     # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
     # whole mission, judged over the executed team
     sim.kept = ("mission",) if fails or moves else (tuple(cfg.specs) or ("mission",))

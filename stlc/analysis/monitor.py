@@ -15,7 +15,7 @@ of LANGUAGE.md ("Robustness semantics"), vectorised with numpy:
 * ``stlc.analysis.monitor_demand`` evaluates several formulas at their first sample in one go (the
   risk pass's fast path) with these semantics.
 
-Conventions the contract leaves open (worth repeating in the README):
+Conventions the contract leaves open (docs/language.md repeats them):
 
 * The formula is first put in negation normal form (``nnf.normalize``); its semantics is
   that of the NNF, so ``f`` and ``normalize(f)`` always have the same robustness.

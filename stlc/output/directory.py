@@ -1,7 +1,7 @@
 """The output directory of ``stlc compile`` / ``simulate`` / ``risk`` / ``sweep``: what stlc
 may write there, and how.
 
-Contract (README, "Output directory"):
+Contract (docs/outputs.md, "The output directory"):
 
 * stlc writes only the files of its output set into DIR (``OWNED``: solution.json,
   trajectory.csv, report.html, risk.json, risk_samples.npz, ``stlc simulate``'s replan.json

@@ -1,4 +1,4 @@
-"""A mission's formulas over *another team*, without the checker (issue 18).
+"""A mission's formulas over *another team*, without the checker.
 
 The checker expands ``forall d in team`` / ``exists d in team`` into an ``And`` / ``Or``
 over the mission's vehicles.  To judge the executed team of a backup takeover (the backup
