@@ -348,7 +348,8 @@ def monitor_log(args, program):
                                     "the log could be resampled to",
                                     Span(args.file, 1, 1, 1, 2),
                                     "give the step: `--resample 0.1`")])
-    trace = read_log(args.log, list(program.vehicles), dict(args.maps), dt)
+    trace = read_log(args.log, list(program.vehicles), dict(args.maps), dt,
+                     {v: x.span for v, x in program.vehicles.items()})
     res = monitor_available(monitored_formulas(program), trace, program.params)
     for name, v in res.items():
         if v.get("missing"):

@@ -56,8 +56,8 @@ def _line_times() -> np.ndarray:
     return t
 
 
-def _write_bag(path: Path, topic: str, kind: str) -> None:
-    from rosbags.rosbag2 import Writer
+def _write_bag(path: Path, topic: str, kind: str, mcap: bool = False) -> None:
+    from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.ROS2_HUMBLE)
@@ -66,7 +66,8 @@ def _write_bag(path: Path, topic: str, kind: str) -> None:
     # in the body frame, where Odometry's twist lives
     q = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(math.pi / 4),
                                           w=math.cos(math.pi / 4))
-    with Writer(path, version=8) as w:  # sqlite3 storage
+    storage = StoragePlugin.MCAP if mcap else StoragePlugin.SQLITE3
+    with Writer(path, version=8, storage_plugin=storage) as w:
         conn = w.add_connection(topic, kind, typestore=ts)
         for t in _line_times():
             stamp = T["builtin_interfaces/msg/Time"](sec=int(T0 + t),
@@ -110,6 +111,17 @@ def test_an_independently_written_bag_is_monitored(tmp_path, capsys, kind):
     assert code2 == 0 and out2["specs"] == specs
 
 
+def test_a_single_mcap_file_is_monitored(tmp_path, capsys):
+    stl = tmp_path / "line.stl"
+    stl.write_text(POINT)
+    _write_bag(tmp_path / "flight", "/p/odom", "nav_msgs/msg/Odometry", mcap=True)
+    files = list((tmp_path / "flight").glob("*.mcap"))
+    assert len(files) == 1
+    code, out, err = _monitor(capsys, stl, files[0])
+    assert code == 0, err
+    assert out["specs"]["slow"]["robustness"] == pytest.approx(SLOW, abs=1e-6)
+
+
 def test_a_missing_topic_is_a_diagnostic(tmp_path, capsys):
     stl = tmp_path / "line.stl"
     stl.write_text(POINT)
@@ -117,6 +129,7 @@ def test_a_missing_topic_is_a_diagnostic(tmp_path, capsys):
     _write_bag(bag, "/p/odom", "nav_msgs/msg/Odometry")
     code, _, err = _monitor(capsys, stl, bag, "--map", "p=/uav9/odom")
     assert code == 1 and "error[STL603]" in err and "/p/odom" in err
+    assert "line.stl:1:1:" in err  # at the vehicle's declaration, not inside the bag
     code, _, err = _monitor(capsys, stl, bag, "--map", "q=/p/odom")
     assert code == 1 and "`q` is not a vehicle" in err
     code, _, err = _monitor(capsys, stl, tmp_path / "nothing.ulg")

@@ -62,11 +62,10 @@ def rotation(eta: np.ndarray) -> np.ndarray:
     cf, sf = np.cos(eta[..., 0]), np.sin(eta[..., 0])
     ct, st = np.cos(eta[..., 1]), np.sin(eta[..., 1])
     cp, sp = np.cos(eta[..., 2]), np.sin(eta[..., 2])
-    r = np.empty(eta.shape[:-1] + (3, 3))
-    r[..., 0, 0], r[..., 0, 1], r[..., 0, 2] = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
-    r[..., 1, 0], r[..., 1, 1], r[..., 1, 2] = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
-    r[..., 2, 0], r[..., 2, 1], r[..., 2, 2] = -st, ct * sf, ct * cf
-    return r
+    rows = [[cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
+            [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
+            [-st, ct * sf, ct * cf]]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
 def euler(r: np.ndarray) -> np.ndarray:
@@ -93,11 +92,10 @@ def quaternion_matrix(q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = (q[..., i] for i in range(4))
-    r = np.empty(q.shape[:-1] + (3, 3))
-    r[..., 0, 0], r[..., 0, 1], r[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
-    r[..., 1, 0], r[..., 1, 1], r[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    r[..., 2, 0], r[..., 2, 1], r[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-    return r
+    rows = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
 def ned_frd_to_enu_flu(r_ned: np.ndarray) -> np.ndarray:

@@ -44,8 +44,12 @@ class Stream:
     att: np.ndarray | None
 
 
-def _fail(code: str, path: str, message: str, help_: str) -> StlcError:
-    return StlcError([Diagnostic(code, message, Span(path, 1, 1, 1, 2), help_)])
+def _fail(code: str, path: str, message: str, help_: str, at: Span | None = None
+          ) -> StlcError:
+    """A diagnostic at ``at`` (a vehicle's declaration in the .stl file, rather than a line
+    of a binary log), else at the log itself."""
+    span = at if at is not None and at.known else Span(path, 1, 1, 1, 2)
+    return StlcError([Diagnostic(code, message, span, help_)])
 
 
 def is_ulog(path: str) -> bool:
@@ -59,7 +63,8 @@ def is_ulog(path: str) -> bool:
 # ---------------------------------------------------------------- ULog
 
 
-def _ulog_streams(path: str, vehicles: list[str], maps: dict[str, str]) -> dict[str, Stream]:
+def _ulog_streams(path: str, vehicles: list[str], maps: dict[str, str],
+                  at: dict[str, Span]) -> dict[str, Stream]:
     from pyulog import ULog
 
     try:
@@ -73,12 +78,12 @@ def _ulog_streams(path: str, vehicles: list[str], maps: dict[str, str]) -> dict[
         inst = maps.get(v, "0")
         if not inst.isdigit():
             raise _fail("STL603", path, f"`--map {v}={inst}`: a ULog's topics are chosen by "
-                        "instance number", f"write `--map {v}=0`")
+                        "instance number", f"write `--map {v}=0`", at.get(v))
         lp = topics.get(("vehicle_local_position", int(inst)))
         if lp is None or len(lp["timestamp"]) == 0:
             raise _fail("STL603", path, f"the ULog `{path}` has no vehicle_local_position "
                         f"instance {inst} for `{v}`",
-                        "log vehicle_local_position (PX4's default logger does)")
+                        "log vehicle_local_position (PX4's default logger does)", at.get(v))
         t = lp["timestamp"].astype(np.float64) * 1e-6
         ned = np.stack([lp[c] for c in ("x", "y", "z")], axis=1).astype(float)
         vned = np.stack([lp[c] for c in ("vx", "vy", "vz")], axis=1).astype(float)
@@ -101,7 +106,8 @@ def _interp_angle(t: np.ndarray, ts: np.ndarray, a: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- ROS 2 bags
 
 
-def _bag_streams(path: str, vehicles: list[str], maps: dict[str, str]) -> dict[str, Stream]:
+def _bag_streams(path: str, vehicles: list[str], maps: dict[str, str],
+                 at: dict[str, Span]) -> dict[str, Stream]:
     from pathlib import Path
 
     from rosbags.highlevel import AnyReader
@@ -125,12 +131,12 @@ def _bag_streams(path: str, vehicles: list[str], maps: dict[str, str]) -> dict[s
                                 f"`{v}`'s: " + (", ".join(cands) or "no Odometry or "
                                                 "PoseStamped topic under /" + v + "/"),
                                 f"name it: `--map {v}=/{v}/odom` (topics: "
-                                + (", ".join(sorted(usable)) or "none usable") + ")")
+                                + (", ".join(sorted(usable)) or "none usable") + ")", at.get(v))
                 topic = cands[0]
             if topic not in usable:
                 raise _fail("STL603", path, f"the bag `{path}` has no Odometry or "
                             f"PoseStamped topic `{topic}` (for `{v}`)",
-                            "topics: " + (", ".join(sorted(usable)) or "none usable"))
+                            "topics: " + (", ".join(sorted(usable)) or "none usable"), at.get(v))
             chosen[v] = usable[topic]
         return {v: _bag_stream(reader, c) for v, c in chosen.items()}
     finally:
@@ -166,11 +172,13 @@ def _bag_stream(reader, conn) -> Stream:
 # ---------------------------------------------------------------- the trace
 
 
-def read_log(path: str, declared: list[str], maps: dict[str, str], dt: float) -> Trace:
+def read_log(path: str, declared: list[str], maps: dict[str, str], dt: float,
+             spans: dict[str, Span] | None = None) -> Trace:
     """The log at ``path`` (ULog file, rosbag2 folder or .mcap) as a ``Trace`` on steps of
     ``dt`` s of the ``declared`` vehicles that ``maps`` names (all of them without a map;
     see the module docstring)."""
     vehicles = [v for v in declared if v in maps] if maps else list(declared)
+    at = dict(spans or {})
     if not os.path.exists(path):
         raise _fail("STL601", path, f"cannot read `{path}`: no such file or directory",
                     "give a PX4 .ulg file, a rosbag2 folder or an .mcap file")
@@ -178,8 +186,8 @@ def read_log(path: str, declared: list[str], maps: dict[str, str], dt: float) ->
     if unknown:
         raise _fail("STL603", path, f"`--map {unknown[0]}=…`: `{unknown[0]}` is not a vehicle "
                     "of the file", "vehicles: " + ", ".join(declared))
-    streams = _ulog_streams(path, vehicles, maps) if is_ulog(path) else \
-        _bag_streams(path, vehicles, maps)
+    streams = _ulog_streams(path, vehicles, maps, at) if is_ulog(path) else \
+        _bag_streams(path, vehicles, maps, at)
     for v, s in streams.items():
         if s.t.size < 2 or not np.all(np.diff(s.t) > 0):
             raise _fail("STL604", path, f"`{v}`'s stream {s.source} has "
