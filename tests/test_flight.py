@@ -363,3 +363,17 @@ def test_an_operator_move_is_decided_by_the_risk_levels(tmp_path, level, decisio
     assert detail["decided_by"] == ("risk level" if decision == "replan"
                                     else "threshold and risk levels")
     assert bool(detail["risk_levels_failed"]) == (decision == "replan")
+
+
+@pytest.mark.parametrize("args, says", [(["--wind", "1,2"], "expected 3 numbers"),
+                                        (["--runs", "0"], "must be at least 1"),
+                                        (["--noise", "0.1,-1"], "not negative"),
+                                        (["--turbulence", "gusty"], "invalid choice"),
+                                        (["--workers", "2", "--scheduler", "x"],
+                                         "not allowed with")])
+def test_bad_fly_options_are_usage_errors(capsys, args, says):
+    from stlc.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["fly", str(CLIMB), *args])
+    assert e.value.code == 2 and says in capsys.readouterr().err
