@@ -60,6 +60,12 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
                           start=time.monotonic() - (time.perf_counter() - t0)):
         problem, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
     sol.timing.update(loaded.timing)
+    if sol.times.size < 2 or f"{m.vehicles[0]}.pos.x" not in sol.channels:
+        sol.notes.append("not flown: there is no plan to fly")
+        write_files(outdir, program, m, sol)
+        summary(sol, outdir)
+        print(f"{m.name}: not flown: there is no plan to fly", file=sys.stderr)
+        return EXIT_UNSAT
     pushes = tuple(m.simulate.disturbances) if m.simulate and pushes else ()
     # the command line's wind, turbulence and noise replace the `simulate` block's
     air = m.simulate.wind if m.simulate and m.simulate.wind else None
