@@ -11,7 +11,9 @@
   force RᵀF.  The wrench is allocated to rotor forces through the pseudo-inverse of the
   vehicle's rotor matrix (``stlc.vehicles.geometry``) and saturated at the declared force
   bounds; for a fully actuated vehicle with priorities — the feedforward force and the
-  moment first, then the largest part of the position feedback force the bounds allow.
+  moment first, then the largest part of the position feedback force the bounds allow;
+  the horizontal part it could not give tilts the next step's desired attitude (the
+  plan's, turned so its body z leans that way), as an under-actuated vehicle would.
 * **Point masses**: a PD tracker with acceleration feedforward,
   ``a = a_d − k_p e_x − k_d e_v``, clipped to the declared acceleration bounds.
 
@@ -85,6 +87,8 @@ class Geometric:
         jd = np.diag(self.J)
         self.kR = jd * gains.kp_att
         self.kW = jd * gains.kd_att
+        #: (N, 3) the horizontal feedback force the rotor bounds refused at the last step
+        self.unmet: np.ndarray | None = None
 
     def __call__(self, p, v, R, w, ref) -> np.ndarray:
         """Rotor force commands (N, n) for measured positions, velocities (N, 3), attitudes
@@ -92,7 +96,7 @@ class Geometric:
         e3 = np.array([0.0, 0.0, 1.0])
         F = -self.kx * (p - ref.pos) - self.kv * (v - ref.vel) + self.m * (ref.acc + self.g * e3)
         if self.full:
-            Rd = ref.R[None]
+            Rd = ref.R[None] if self.unmet is None else _tilted(ref.R, self.unmet, F)
             body_f = np.einsum("nji,nj->ni", R, F)
         else:
             b3 = _unit(F)
@@ -122,7 +126,24 @@ class Geometric:
             room = np.where(extra > 0, (self.hi - base) / extra,
                             np.where(extra < 0, (self.lo - base) / extra, np.inf))
         scale = np.clip(np.min(room, axis=1), 0.0, 1.0)
+        unmet = (1.0 - scale)[:, None] * (F - ff)
+        unmet[:, 2] = 0.0  # horizontal: what tilting the body can add
+        self.unmet = unmet
         return np.clip(base + scale[:, None] * extra, self.lo, self.hi)
+
+
+def _tilted(R_plan: np.ndarray, unmet: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """The plan's attitude turned (by the smallest rotation) so that its body z leans
+    toward the horizontal force the rotors could not give: b3 → unit(|F| b3 + unmet)."""
+    b3 = R_plan[:, 2]
+    target = _unit(np.linalg.norm(F, axis=1, keepdims=True) * b3 + unmet)
+    axis = cross(np.broadcast_to(b3, target.shape), target)
+    s = np.linalg.norm(axis, axis=1)
+    c = target @ b3
+    th = np.arctan2(s, c)
+    K = hat(axis / np.maximum(s, 1e-12)[:, None])
+    rot = np.eye(3) + np.sin(th)[:, None, None] * K + (1 - np.cos(th))[:, None, None] * (K @ K)
+    return rot @ R_plan
 
 
 class PointTracker:
