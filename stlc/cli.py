@@ -1,5 +1,5 @@
-"""Command line: ``stlc check | monitor | compile | simulate | risk | bench | fmt | lsp |
-explain`` (the language tools live in ``stlc.tools``).
+"""Command line: ``stlc check | monitor | compile | simulate | fly | risk | bench | fmt |
+lsp | explain`` (the language tools live in ``stlc.tools``).
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
@@ -70,8 +70,9 @@ def _parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE", help="the .stl file whose specs are monitored")
-    m.add_argument("--trace", required=True, metavar="CSV",
-                   help="the trace: a header `t,<signal>,...`, one row per sample")
+    from stlc.fly import add_log_options
+
+    add_log_options(m)
     m.add_argument("--json", action="store_true", help="print one JSON object")
     m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
                    help="interpolate a log with a non-uniform time column onto steps of DT s")
@@ -121,6 +122,10 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--library", metavar="DIR", default=None,
                    help="warm-start a replan from the nearest plan of a sweep's DIR")
     _set_option(s)
+
+    from stlc.fly import add_parser as add_fly
+
+    add_fly(sub, _set_option, _seconds)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
     r.add_argument("file", metavar="FILE", help="the .stl file with the risk cases")
@@ -263,7 +268,8 @@ def main(argv: list[str] | None = None) -> int:
     limits.set_max_memory(getattr(args, "max_memory", None))
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
-           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep}[args.cmd]
+           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep,
+           "fly": cmd_fly}[args.cmd]
     if threading.current_thread() is threading.main_thread():
         interrupt.on_termination()  # SIGTERM/SIGHUP: Ctrl-C's contract, exit 143/129
     try:
@@ -339,8 +345,13 @@ def cmd_monitor(args) -> int:
 
     loaded = load(args.file, args.sets)
     program = loaded.program
-    trace = read_trace(args.trace, resample=args.resample)
-    res = monitor_trace(program, trace)
+    if args.log is not None:
+        from stlc.fly import monitor_log
+
+        trace, res = monitor_log(args, program)
+    else:
+        trace = read_trace(args.trace, resample=args.resample)
+        res = monitor_trace(program, trace)
     found = vacuous(monitored_formulas(program), trace.dt, trace.channels, program.params,
                     trace.n)
     emit_warnings(loaded.warnings + found, False, {args.file: program.source})
@@ -386,6 +397,12 @@ def cmd_simulate(args) -> int:
                          disturbances=args.disturb or None, failures=fails, quiet=args.quiet,
                          time_limit=args.time_limit, sets=args.sets,
                          moves=[args.move] if args.move else None, library=args.library)
+
+
+def cmd_fly(args) -> int:
+    from stlc.fly import command
+
+    return command(args)
 
 
 def cmd_risk(args) -> int:

@@ -394,8 +394,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
-        if sol.status != "satisfied":
-            code = EXIT_UNSAT
+        if sol.status != "satisfied" or outputs.risk_levels_failed(sol):
+            code = EXIT_UNSAT  # a risk level of the mission not met counts as unsatisfied
         if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
             emit_warnings([replace(w, severity="error") for w in found] if deny_warnings
                           else found, False, {path: program.source})

@@ -45,7 +45,8 @@ def test_the_docs_example_runs(tmp_path):
     # the files of `stlc compile -o out`, with the directory's ownership record
     # (`.stlc-outputs.json`: a later write replaces only what stlc wrote there)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
-        ".stlc-outputs.json", "report.html", "solution.json", "trajectory.csv"]
+        ".stlc-outputs.json", "flight", "report.html", "rosbag2", "solution.json",
+        "trajectory.csv"]
 
 
 def test_import_is_cheap():

@@ -25,7 +25,8 @@ from stlc.semantics import nnf
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
-OUTPUTS = {"report.html", "solution.json", "trajectory.csv", ".stlc-outputs.json"}
+OUTPUTS = {"report.html", "solution.json", "trajectory.csv", ".stlc-outputs.json",
+           "flight", "rosbag2"}  # the flight-stack folders (stlc.flight.export)
 
 POINT_MASS = """\
 vehicle p : point_mass {

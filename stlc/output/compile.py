@@ -4,7 +4,8 @@
 The pipeline (``stlc.pipeline.compile_file``) orders the passes and calls this last, once
 everything the outputs contain exists.  ``stlc.output.directory`` writes them: only stlc's own
 files, each replaced atomically, as one set under a lock on the directory (checked before any
-solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker.
+solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker;
+every plan its flight-stack outputs (``flight/``, ``rosbag2/``: ``stlc.flight.export``).
 """
 
 from __future__ import annotations
@@ -30,9 +31,10 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
 
 
 def write_files(outdir: str, program: model.Program, mission: model.Mission, sol: Solution,
-                extra=None, simulation=None) -> None:
+                extra=None, simulation=None, flight=None) -> None:
     """The compile outputs of ``sol``, plus what ``extra(stage_dir)`` writes, as one set;
-    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section."""
+    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section,
+    and so does ``flight`` (``stlc fly``'s record and flown channels)."""
     from stlc.output.directory import staged
     from stlc.output.report import write_report
 
@@ -43,6 +45,10 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
             fh.write(solution_json(sol))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
+        if sol.times.size:  # PX4 / MRS setpoints and a ROS 2 bag (``stlc.flight.export``)
+            from stlc.flight.export import write_flight_outputs
+
+            write_flight_outputs(tmp, program, mission, sol.times, sol.channels)
         if sol.routes:
             from stlc.backends.team_backend import solution_plan
             from stlc.team.refine import per_drone_csv
@@ -60,7 +66,7 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
                 save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
         write_report(os.path.join(tmp, "report.html"), program, mission, sol,
-                     simulation=simulation)
+                     simulation=simulation, flight=flight)
 
 
 def summary(sol: Solution, outdir: str) -> None:
@@ -96,6 +102,17 @@ def summary(sol: Solution, outdir: str) -> None:
         note = words.impossibility_note(sol.solver.get("infeasibility"))  # type: ignore[arg-type]
         if note:
             print(f"  note: {sol.mission}: {note}", file=sys.stderr)
+
+
+def risk_levels_failed(sol: Solution) -> bool:
+    """Print each risk level of the mission that a risk case does not meet (``risk.json``'s
+    ``levels``); True if there is one (``stlc compile`` then exits 3)."""
+    failed = [(case, lv) for case, lvs in ((sol.risk or {}).get("levels") or {}).items()
+              for lv in lvs if not lv["holds"]]
+    for case, lv in failed:
+        print(f"  risk level `{lv['level']}` (line {lv['line']}) does not hold in case "
+              f"`{case}`: {lv['measure']} = {lv['value']:.4g}", file=sys.stderr)
+    return bool(failed)
 
 
 def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,

@@ -33,6 +33,7 @@ from stlc.vehicles import model_of
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
 from .flags import flags
 from .predicates import readable
+from .flight_view import flight as flight_section
 from .replan_view import replan
 from .risk_view import risk
 from .scene import scene
@@ -336,12 +337,13 @@ def _source(program: Program, mission: Mission, sol: Solution, rows: list[dict])
 
 def build_view(program: Program, mission: Mission, solution: Solution,
                risk_samples: Mapping[str, np.ndarray] | None = None,
-               simulation=None) -> dict:
+               simulation=None, flight=None) -> dict:
     """Everything the report shows, as plain JSON-serialisable data.
 
     ``risk_samples``: the per-realisation arrays of ``risk_samples.npz`` (keys
     ``<case>/exact/requirement``, …), for the risk histograms.  ``simulation``: the
-    ``stlc.replan.result.SimulationResult`` of ``stlc simulate``, for its section.
+    ``stlc.replan.result.SimulationResult`` of ``stlc simulate``, for its section;
+    ``flight``: ``stlc fly``'s record and flown channels (``flight_view``).
     """
     wins = windows(mission, solution, spec_formulas(program, mission, solution))
     rows = _spec_rows(program, mission, solution, wins)
@@ -363,6 +365,7 @@ def build_view(program: Program, mission: Mission, solution: Solution,
         "energy": en,
         "team": team(program, mission, solution),
         "replan": replan(program, mission, solution, simulation),
+        "flight": flight_section(solution, flight),
         "risk": risk(solution.risk, mission, len(program.source.splitlines()),
                      risk_samples),
         "source": _source(program, mission, solution, rows),

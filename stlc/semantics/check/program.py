@@ -23,6 +23,7 @@ from stlc.semantics.check.elaborate import ExpressionElaborator
 from stlc.semantics.check.events import check_simulate
 from stlc.semantics.check.formulas import FormulaElaborator
 from stlc.semantics.check.mission import check_mission
+from stlc.semantics.check.risklevel import with_levels
 from stlc.semantics.check.teams import TeamTemplates
 from stlc.semantics.check.values import Sym
 
@@ -83,7 +84,8 @@ class Checker(ExpressionElaborator, FormulaElaborator, TeamTemplates):
                     mis = margins.apply(self, m, mis)  # κ by unit (``margin = [...]``)
                     delay = (mis.replan or model.ReplanConfig()).takeover_delay
                     mis = replace(mis, simulate=check_simulate(self, m, mis.vehicles,
-                                                               mis.horizon, delay))
+                                                               mis.horizon, delay),
+                                  risk=with_levels(self, m, mis.risk))
                     missions[mis.name] = mis
             elif isinstance(m, ast.Block) and m.kind not in ("vehicle", "scenario"):
                 self.bad_kind(m.kind, m.span, TOP_KINDS, "at the top level")

@@ -441,6 +441,32 @@
     }
   }
 
+  /* ------------------------------------------------------------------ closed-loop flight */
+  function flightPlots(fl, sc) {
+    var tt = [];
+    sc.boxes.forEach(function (b) {
+      if (!b.visible) return;
+      tt.push({ type: "scatter", mode: "lines", x: b.hull_xy.map(function (p) { return p[0]; }),
+                y: b.hull_xy.map(function (p) { return p[1]; }), name: txt(b.name), showlegend: false,
+                line: { color: b.color, width: 1 }, hoverinfo: "skip" });
+    });
+    fl.paths.forEach(function (p) {
+      [["plan", fl.colors.plan, "dash", 2], ["flown", p.color, "solid", 3]].forEach(function (k) {
+        var xy = p[k[0]];
+        if (!xy) return;
+        tt.push({ type: "scatter", mode: "lines", x: xy[0], y: xy[1], name: txt(p.vehicle) + " " + k[0],
+                  line: { color: k[1], width: k[3], dash: k[2] } });
+      });
+    });
+    draw("flight-top", tt, baseLayout({ title: title("Plan and flown paths (top view)"), hovermode: "closest",
+      xaxis: { title: { text: "x (m)" }, gridcolor: GRID },
+      yaxis: { title: { text: "y (m)" }, gridcolor: GRID, scaleanchor: "x" } }));
+    draw("flight-error", [{ type: "scatter", mode: "lines", x: fl.error.t, y: fl.error.e,
+                            name: "tracking error", line: { width: 2 } }],
+      baseLayout({ title: title("Tracking error ‖p_flown − p_plan‖"), xaxis: timeAxis({ title: { text: "t" } }),
+                   yaxis: { title: { text: "m" }, gridcolor: GRID } }));
+  }
+
   if (typeof Plotly === "undefined") {
     console.error("plotly.js is missing from the report");
     return;
@@ -454,6 +480,7 @@
     if (data.team.forward) forwardPlot(data.team.forward);
   }
   if (data.replan) replanPlots(data.replan, data.scene);
+  if (data.flight) flightPlots(data.flight, data.scene);
   if (data.energy.profiles.length) energyPlot(data.energy);
   if (data.risk) data.risk.cases.forEach(function (c) { if (c.histogram) riskPlot(c); });
 })();
