@@ -71,7 +71,6 @@ def _parser() -> argparse.ArgumentParser:
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE", help="the .stl file whose specs are monitored")
     from stlc.fly import add_log_options
-
     add_log_options(m)
     m.add_argument("--json", action="store_true", help="print one JSON object")
     m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
@@ -124,7 +123,6 @@ def _parser() -> argparse.ArgumentParser:
     _set_option(s)
 
     from stlc.fly import add_parser as add_fly
-
     add_fly(sub, _set_option, _seconds)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")

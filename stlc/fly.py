@@ -276,7 +276,8 @@ def mapping(text: str) -> tuple[str, str]:
 def add_log_options(m) -> None:
     """``stlc monitor``'s trace source: ``--trace CSV`` or ``--log PATH [--map ...]``."""
     src = m.add_mutually_exclusive_group(required=True)
-    src.add_argument("--trace", metavar="CSV")
+    src.add_argument("--trace", metavar="CSV",
+                     help="the trace: a header `t,<signal>,...`, one row per sample")
     src.add_argument("--log", metavar="PATH", help="a flight log: PX4 ULog (.ulg), rosbag2 "
                      "folder or .mcap, resampled onto the mission's step (or --resample)")
     m.add_argument("--map", metavar="DRONE=TOPIC", action="append", default=[],
@@ -289,9 +290,11 @@ def add_parser(sub, set_option, seconds) -> None:
     its seconds type)."""
     y = sub.add_parser("fly", help="plan a mission and fly it closed loop (tracking "
                        "controller, full vehicle model, wind, turbulence, noise)")
-    y.add_argument("file", metavar="FILE")
-    y.add_argument("--mission", metavar="NAME", default=None)
-    y.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    y.add_argument("file", metavar="FILE", help="the .stl file to plan and fly")
+    y.add_argument("--mission", metavar="NAME", default=None,
+                   help="the mission to fly (default: the file's only mission)")
+    y.add_argument("-o", "--out", metavar="OUTDIR", default=None,
+                   help="where flight.json, flown.csv and the report go")
     y.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     y.add_argument("--wind", metavar="VX,VY,VZ", type=_triple, default=None,
                    help="steady wind in m/s (ENU); replaces the simulate block's `wind`")
@@ -302,7 +305,8 @@ def add_parser(sub, set_option, seconds) -> None:
     y.add_argument("--runs", metavar="N", type=_count, default=None,
                    help="fly N seeded realisations: P(violation), VaR, CVaR of the flown "
                    "robustness")
-    y.add_argument("--seed", type=int, default=0)
+    y.add_argument("--seed", type=int, default=0,
+                   help="seed of the wind, noise and scenario draws (the same seed flies the same)")
     y.add_argument("--no-pushes", action="store_true",
                    help="fly without the pushes of the mission's simulate block")
     y.add_argument("--no-replan", action="store_true",
