@@ -58,6 +58,9 @@ def check_paths(paths: list[str], sets: list[str] | tuple[str, ...] = ()
         try:
             loaded = load(p, sets)
             diags.extend(loaded.warnings)
+            from stlc.analysis.hopeless import hopeless
+
+            diags.extend(hopeless(loaded.program))  # a start below κ: no plan exists
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
@@ -188,6 +191,9 @@ def _run_verified(problem, chain):
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     sol.solver["chain"] = chain_record(chain, sols)
+    seed = next((s.solver["seed"] for s in sols if isinstance(s.solver.get("seed"), dict)), {})
+    if seed.get("distances"):  # the MILP's polyhedral distances: their direction, stated
+        sol.notes.append(seed["distances"])
     t0 = time.perf_counter()
     verify(problem, sol)
     sol.timing["verify_s"] = time.perf_counter() - t0
@@ -344,6 +350,11 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     program = loaded.program
     missions = select_missions(path, program, mission)
     emit_warnings(loaded.warnings, deny_warnings, {path: program.source})
+    from stlc.analysis.hopeless import hopeless
+
+    doomed = hopeless(program, missions)  # before any planning: a start below κ
+    if doomed:
+        raise StlcError(doomed)
     several = len(missions) > 1
     base = out if out is not None else "reports"
     outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
@@ -377,13 +388,14 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                 assess_risk(program, m, sol, problem)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
-        found = list(sol.diagnostics)  # the plan's own warnings (STLW02)
+        # the plan's own warnings (STLW02); its errors (STL504) are in the summary
+        found = [d for d in sol.diagnostics if d.severity == "warning"]
         sol.diagnostics[:0] = loaded.warnings  # the report lists the file's too
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
-        if sol.status != "satisfied":
-            code = EXIT_UNSAT
+        if sol.status != "satisfied" or outputs.risk_levels_failed(sol):
+            code = EXIT_UNSAT  # a risk level of the mission not met counts as unsatisfied
         if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
             emit_warnings([replace(w, severity="error") for w in found] if deny_warnings
                           else found, False, {path: program.source})

@@ -15,13 +15,18 @@ The units, lowest first (``LAYERS``)::
     planning   the contract: PlanningProblem in, Solution out; verification
     backends   planners behind the Backend interface
     replan     online replanning (flight loop, events, result)
+    flight     frames, flight-stack exports, flight logs in, the closed-loop simulator
     output     writers: solution.json, CSVs, the HTML report, the output directory
     pipeline   orders the passes
     simulation ``stlc simulate``: the compile, then the flight loops of ``replan``
-    api        the Python API (``stlc.load``, ``stlc.compile``, ...; the package's
-               ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     tools      language tools: fmt, lsp, explain
     sweep      ``stlc sweep`` on Dask (a client and its workers' tasks)
+    fly        ``stlc fly``: the compile, then the closed loop of ``flight`` (on the sweep's
+               Dask client); the flight options of the command line
+    results    what the Python API hands out (``Plan``, ``Simulation``, sweep tables) and
+               the commands it runs beyond ``compile`` (simulate, sweep, risk)
+    api        the Python API (``stlc.load``, ``stlc.compile``, ...; the package's
+               ``__getattr__`` loads it lazily, the one import of a higher layer allowed)
     bench      benchmarks
     cli        command line
     fuzz, __main__
@@ -47,12 +52,15 @@ LAYERS: list[set[str]] = [
     {"planning"},
     {"backends"},
     {"replan"},
+    {"flight"},
     {"output"},
     {"pipeline"},
     {"simulation"},
-    {"api"},
     {"tools"},
     {"sweep"},
+    {"fly"},
+    {"results"},
+    {"api"},
     {"bench"},
     {"cli"},
     {"fuzz", "__main__"},

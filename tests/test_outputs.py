@@ -24,6 +24,7 @@ from stlc.output import directory
 
 ROOT = Path(__file__).resolve().parent.parent
 OWN = {"report.html", "solution.json", "trajectory.csv", directory.MANIFEST}
+FLIGHT = set(directory.FLIGHT_DIRS)  # the flight-stack folders (stlc.flight.export)
 VEHICLE = """\
 vehicle p : point_mass {
   vel_max = (1, 1, 1) m/s
@@ -69,7 +70,7 @@ def test_unrelated_files_in_the_output_directory_survive(two, tmp_path):
     (out / "sub").mkdir()
     (out / "sub" / "deep.txt").write_text("also mine")
     assert main(["compile", str(two), "--mission", "east", "-o", str(out), "-q"]) == 0
-    assert {p.name for p in out.iterdir()} == OWN | {"notes.txt", "sub"}
+    assert {p.name for p in out.iterdir()} == OWN | FLIGHT | {"notes.txt", "sub"}
     assert (out / "notes.txt").read_text() == "mine"
     assert (out / "sub" / "deep.txt").read_text() == "also mine"
 
@@ -79,7 +80,7 @@ def test_output_to_the_current_directory_keeps_the_mission_file(two, tmp_path):
                         "-o", ".", "-q"], cwd=tmp_path, env=env(), capture_output=True,
                        text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    assert {p.name for p in tmp_path.iterdir()} == OWN | {"two.stl"}
+    assert {p.name for p in tmp_path.iterdir()} == OWN | FLIGHT | {"two.stl"}
     assert two.read_text() == TWO
 
 
@@ -135,7 +136,7 @@ def test_concurrent_compiles_to_one_directory_end_with_one_complete_set(two, tmp
     for p in procs:
         _, err = p.communicate(timeout=300)
         assert p.returncode == 0, err
-    assert {p.name for p in out.iterdir()} == OWN | {"keep.txt"}
+    assert {p.name for p in out.iterdir()} == OWN | FLIGHT | {"keep.txt"}
     sol = json.loads((out / "solution.json").read_text())
     header = (out / "trajectory.csv").read_text().splitlines()[0]
     html = (out / "report.html").read_text()

@@ -80,7 +80,7 @@ class Capabilities:
 ALL_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
                        ir.Until, ir.Release, ir.Next})
 ALL_FUNCTIONS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log",
-                           "atan2", "angdiff"})
+                           "atan2", "angdiff", "sd_box", "sd_cylinder", "sd_capsule"})
 
 
 class Backend:
@@ -156,7 +156,9 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
         for e in ir.expr_nodes(g.expr):
             msg = None
             if isinstance(e, ir.Call) and e.fn not in cap.functions:
-                msg = f"{who} does not support the function `{e.fn}`"
+                msg = f"{who} does not support " + (
+                    "distances to regions (`dist`, a round region)" if e.fn.startswith("sd_")
+                    else f"the function `{e.fn}`")
             elif isinstance(e, ir.Sig) and e.name not in planned \
                     and e.name not in problem.fixed_channels:
                 field = e.name.split(".")[1] if "." in e.name else e.name

@@ -39,6 +39,7 @@ expressions exactly; the two agree wherever abs/sqrt/log/atan2/min/max are not u
 ``a ^ b``       CasADi ``power``; use a constant exponent (derivative of a variable
                 exponent contains log(a))
 ``a / b``       plain division: the user must keep b away from 0
+``sd_*``        signed distances, exact outside (``smooth_geometry``)
 ==============  ====================================================================
 """
 
@@ -51,6 +52,7 @@ from functools import reduce
 import casadi as ca
 import numpy as np
 
+from stlc.backends.smooth_geometry import SD_CASADI
 from stlc.semantics import ir
 
 #: stand-in for ±inf (true/false, empty windows, ``next`` past the end of the trace)
@@ -241,7 +243,8 @@ CALLS: dict[str, Callable[[list[Num], ExprEnv], Num]] = {
     "atan2": lambda a, env: _safe_atan2(a[0], a[1]),
     "angdiff": lambda a, env: ca.atan2(ca.sin(a[0] - a[1]), ca.cos(a[0] - a[1])),
 }
-_ARITY = {"atan2": 2, "angdiff": 2}
+CALLS.update(SD_CASADI)  # signed distances to boxes and round regions (``smooth_geometry``)
+_ARITY = {"atan2": 2, "angdiff": 2, "sd_box": 6, "sd_cylinder": 5, "sd_capsule": 5}
 
 
 def _call(e: ir.Call, env: ExprEnv) -> Num:

@@ -41,6 +41,7 @@ from stlc.backends.smooth_casadi import lower_robustness
 from stlc.backends.smooth_windows import LoweredRobustness
 from stlc.vehicles import dynamics
 from stlc.vehicles.dynamics import substeps
+from stlc.planning import words
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir, model
 from stlc.semantics.timegrid import TimeGrid
@@ -437,11 +438,12 @@ class Progress(ca.Callback):
                                or now - self.printed >= PROGRESS_EVERY_S):
             self.printed = now
             rho = float(self.root_fn(arg[0], self.p))
-            ex = f"{exact:+.4f}" if exact is not None else "(infeasible)"
-            best = f", best verified {self.best_exact:+.4f}" if self.best_x is not None else ""
-            ex += best + deadline.progress_note()
+            best = f", best verified {words.number(self.best_exact)}" \
+                if self.best_x is not None else ""
+            ex = words.iterate_exact(exact) + best + deadline.progress_note()
             print(f"  [{self.label}] iter {self.it:4d}  objective {float(arg[1]):+.5e}  "
-                  f"smooth {rho:+.4f}  exact {ex}", file=self.stream or sys.stderr, flush=True)
+                  f"planner ρ̃ {words.number(rho)}  exact ρ {ex}",
+                  file=self.stream or sys.stderr, flush=True)
         self.it += 1
         stagnant = self.best_exact >= self.kappa and self.it - self.best_it > self.patience
         self.timed_out = deadline.solve_expired()  # the run's time limit (stlc.deadline)

@@ -47,6 +47,12 @@ def seed_budget(binaries: int, factor: float | None = None) -> float:
     return float(max(min(base * f, cap), 0.05))
 
 
+def say(text: str, quiet: bool) -> None:
+    """A progress line on stderr (a stage that falls back says so), unless ``quiet``."""
+    if not quiet:
+        print(text, file=sys.stderr, flush=True)
+
+
 @contextlib.contextmanager
 def heartbeat(text: str, quiet: bool, period: float = HEARTBEAT_S):
     """While the block runs, print ``text`` with the seconds spent every ``period`` s

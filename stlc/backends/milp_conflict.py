@@ -121,6 +121,24 @@ def _drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
     return out
 
 
+def _ignored(problem, keep: set) -> list[str]:
+    """The labels of the requirement's predicates that the relaxation replaces by true."""
+    from stlc.backends.milp_encode import affine
+
+    out: list[str] = []
+    for f in ir.nodes(problem.requirement):
+        if not isinstance(f, ir.Pred) or f.label in out:
+            continue
+        try:
+            affine(f.expr, problem.params, f)
+            linear = True
+        except (NotLinear, ValueError):
+            linear = False
+        if not linear or not ir.signals(f) <= keep:
+            out.append(f.label)
+    return out
+
+
 def required_specs(problem) -> list[str]:
     """The named specs the requirement requires (a conjunct of it, or all of a spec's
     conjuncts are conjuncts of it)."""
@@ -175,17 +193,19 @@ class Proof:
     exact: bool  # proved on the vehicles' own linear model, not on the relaxation
 
 
-def prove_infeasible(problem) -> Proof | None:
+def prove_infeasible(problem, why: list | None = None) -> Proof | None:
     """A proof that no plan satisfies ``problem`` with a minimal conflict, or None (no
     proof: feasible, undecided in time, or not encodable).  Without the holdable end
     (``hold_end``): the planners prefer a plan that ends at rest, but the verdict does not
     ask for one (a plan that does not is satisfied, with a note), so the proof must not
     either — with it, stlpy's RandomMultitarget (optimum +0.274 free, +0.0961 at rest) was
-    called impossible at κ = 0.1."""
+    called impossible at κ = 0.1.  ``why`` receives, without a proof, the reason in words."""
+    say = why.append if why is not None else (lambda _: None)
     problem = replace(problem, hold_end=False)
     exact = exact_model(problem)
     lins = None if exact else relaxed_vehicle(problem)
     if lins is None and not exact:
+        say("the vehicles have no linear relaxation to check the mission on")
         return None
     keep = _kept_channels(problem)
     if exact:
@@ -197,6 +217,8 @@ def prove_infeasible(problem) -> Proof | None:
     req = restrict(problem.requirement)
     size = sum(1 for _ in ir.nodes(problem.requirement))
     if problem.grid.n * len(problem.team) * size > MAX_CELLS:
+        say(f"the mission is too large to check ({problem.grid.n} samples × "
+            f"{len(problem.team)} vehicles × {size} formula nodes > {MAX_CELLS:,})")
         return None
     specs = required_specs(problem)
     formulas = {REQUIRE: req, **{n: restrict(problem.specs[n].normal) for n in specs}}
@@ -204,10 +226,20 @@ def prove_infeasible(problem) -> Proof | None:
     try:
         ck = _Checker(problem, formulas, lins)
     except (NotLinear, ValueError):
+        say("the requirement could not be written as a MILP")
         return None
     left = lambda: min(TOTAL_LIMIT_S - (time.perf_counter() - t0),  # noqa: E731
                        deadline.solve_remaining())
-    if ck.infeasible([REQUIRE], min(SOLVE_LIMIT_S, left())) is not True:
+    verdict = ck.infeasible([REQUIRE], min(SOLVE_LIMIT_S, left()))
+    if verdict is not True:
+        ignored = _ignored(problem, keep)
+        model = "the vehicles' linear model" if exact else "a relaxation of the vehicles"
+        say((f"the check ran out of time ({time.perf_counter() - t0:.1f} s)" if verdict is None
+             else f"it was checked on {model}, where a plan reaching κ exists")
+            + ("" if not ignored else
+               "; that check ignores " + ", ".join(f"`{x}`" for x in ignored[:3])
+               + (f" and {len(ignored) - 3} more" if len(ignored) > 3 else "")
+               + " (not linear in position and velocity), which may be what cannot hold"))
         return None
     # a minimal conflict among the required specs (the `require` line only if needed)
     elements = list(specs)
@@ -228,9 +260,13 @@ def prove_infeasible(problem) -> Proof | None:
 
 def explain_infeasible(problem, sol, quiet: bool = True) -> bool:
     """Prove that no plan satisfies ``problem`` and name a minimal conflict; on a proof,
-    mark ``sol`` infeasible (status, conflict, STL504) and return True."""
-    proof = prove_infeasible(problem)
+    mark ``sol`` infeasible (status, conflict, STL504) and return True; without one, record
+    why (``solver["infeasibility"]``: ``proved`` false and ``why``)."""
+    why: list[str] = []
+    proof = prove_infeasible(problem, why)
     if proof is None:
+        sol.solver["infeasibility"] = {"proved": False,
+                                       "why": why[0] if why else "no proof was found"}
         return False
     mark(problem, sol, proof, quiet)
     return True
@@ -273,4 +309,4 @@ def _mark(problem, sol, conflict: list[str], minimal: bool, wall: float, quiet: 
         fix + ("" if minimal else " (the set may not be minimal: a check ran out of "
                                   "time)")))
     if not quiet:
-        print(f"{m.name}: no plan exists — {what} ({wall:.1f} s)", file=sys.stderr)
+        print(f"{m.name}: impossibility proved ({wall:.1f} s)", file=sys.stderr)

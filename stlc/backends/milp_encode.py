@@ -24,8 +24,12 @@ gives the maximum robustness over all plans:
   ``always``/``release``, −∞ for ``eventually``/``until``, as the exact monitor does).
 
 Terms are memoised by (node, sample), structurally: a sub-formula shared by named specs (or
-repeated) is encoded once.  A predicate that is not affine in the planned channels raises
-``NotLinear`` (the backend refuses it with STL401 at its span, before any work).
+repeated) is encoded once.  A predicate that reads a signed
+distance (``dist``, a round region) is encoded as its polyhedral bound, whose robustness is
+≤ the exact one (``stlc.semantics.polyhedral``: the MILP's ρ̂ is then a lower bound, and
+an infeasible model proves nothing).  Any other predicate that is not affine in the
+planned channels raises ``NotLinear`` (the backend refuses it with STL401 at its span,
+before any work).
 """
 
 from __future__ import annotations
@@ -36,6 +40,8 @@ from dataclasses import dataclass
 
 from stlc.backends.milp_model import INF, Milp
 from stlc.semantics import ir
+from stlc.semantics.polyhedral import polyhedral
+from stlc.semantics.shapes import SD_NUMPY
 from stlc.semantics.timegrid import TimeGrid
 
 
@@ -106,7 +112,9 @@ def affine(e: ir.Expr, params: dict[str, float], pred: ir.Pred) -> Affine:
         case ir.Call(fn, args):
             vals = [affine(a, params, pred) for a in args]
             if any(v[0] for v in vals):
-                raise NotLinear(pred, f"`{fn}` is not linear in the state")
+                raise NotLinear(pred, "a distance to a region (`dist`, a round region) is not "
+                                "linear in the state" if fn.startswith("sd_") else
+                                f"`{fn}` is not linear in the state")
             return {}, _fold(fn, [v[1] for v in vals])  # of constants: a constant
     raise NotLinear(pred, f"unsupported expression {e!r}")
 
@@ -123,6 +131,8 @@ def _fold(fn: str, xs: list[float]) -> float:
         return max(xs)
     if fn == "atan2" and len(xs) == 2:
         return math.atan2(xs[0], xs[1])
+    if fn in SD_NUMPY:  # a signed distance of constants
+        return float(SD_NUMPY[fn](*xs))
     if fn == "angdiff" and len(xs) == 2:
         d = xs[0] - xs[1]
         return math.atan2(math.sin(d), math.cos(d))  # as the exact monitor
@@ -313,7 +323,8 @@ class Encoder:
     def _at(self, f: ir.Formula, k: int) -> Term:
         match f:
             case ir.Pred():
-                return self.pred(f, k)
+                poly = polyhedral(f)  # a signed distance: affine bounds below it
+                return self.pred(f, k) if poly is None else self.at(poly, k)
             case ir.TrueF():
                 return const(INF)
             case ir.FalseF():

@@ -11,7 +11,10 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
 * the requirement keeps its predicates on positions and velocities; an upper bound on a
   norm of them (a speed limit) becomes the box inside its ball (``seed_inner``); every
   other predicate (a lower bound on a norm, heading, rotor speed, attitude, payload)
-  becomes ``true`` (the NLP adds them back);
+  becomes ``true`` (the NLP adds them back); a signed distance to a region (``dist``, a
+  round region) becomes its polyhedral bound below the exact robustness
+  (``stlc.semantics.polyhedral``: a round shape is seen through its circumscribed polytope
+  for a clearance, an inscribed bound for a band's far side);
 * the grid is **as coarse as the formula's intervals allow**: the largest multiple h of the
   mission step, at most ``MAX_STEP_S``, that divides the horizon and every finite bound of a
   temporal operator — so every window of the formula falls on seed samples;
@@ -49,7 +52,6 @@ judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_c
 
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass, replace
 
@@ -66,6 +68,7 @@ from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa
 from stlc.backends.seed_grid import refine as _refine
 from stlc.backends.seed_inner import inner_norms
 from stlc.semantics import ir
+from stlc.semantics.polyhedral import DISTANCE_NOTE, has_distance, polyhedral_formula
 from stlc.semantics.timegrid import TimeGrid
 
 TIME_LIMIT_S = effort.SEED_BASE_S  #: the seed's least wall budget (``effort.seed_budget``)
@@ -85,6 +88,7 @@ def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
 
     keep = _kept_channels(problem)  # positions, velocities and fixed channels
     inner = inner_norms(problem.requirement, problem.params)  # speed limits: inner boxes
+    inner = polyhedral_formula(inner)  # distances: affine bounds below the exact ρ
     f = ir.restrict(_drop_nonlinear(inner, problem.params, {}), lambda s: s in keep)
     if clearance <= 0:
         return f
@@ -172,6 +176,8 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
     f = seed_formula(problem)
     grid = problem.grid
     rec: dict = {"name": "HiGHS MILP seed (highspy)"}
+    if has_distance(problem.requirement):
+        rec["distances"] = DISTANCE_NOTE
     if isinstance(f, (ir.TrueF, ir.FalseF)):
         rec["status"] = "no position predicate"
         return (None, rec, None) if defer_free else (None, rec)
@@ -212,7 +218,6 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
             milp.row({t: 1.0, int(col): -1.0}, 0.0, np.inf)
             milp.row({t: 1.0, int(col): 1.0}, 0.0, np.inf)
             cost[t] = ACC_WEIGHT * h
-    # the budget scales with the MILP's binaries and the machine's load (``effort``)
     limit = effort.seed_budget(milp.n_binaries) if time_limit is None else \
         float(min(time_limit, max(deadline.solve_remaining(), 0.05)))
     rec["budget_s"] = limit
@@ -395,10 +400,9 @@ class MilpPathSeed(KinematicGuess):
             rec["kinematic_s"] = time.perf_counter() - t1
             if "robustness" not in rec:
                 rec["fallback"] = "kinematic guess"
-                if not self.quiet:
-                    print(f"{problem.name}: the MILP seed found no path "
-                          f"({rec.get('status')}, budget {rec.get('budget_s', 0):.1f} s); "
-                          "the seed is the local kinematic guess", file=sys.stderr, flush=True)
+                effort.say(f"{problem.name}: the MILP seed found no path ({rec.get('status')}, "
+                           f"budget {rec.get('budget_s', 0):.1f} s); the seed is the local "
+                           "kinematic guess", self.quiet)
         return (paths, rec, proof), time.perf_counter() - t0
 
     def next_seed(self, problem, channels) -> MilpPathSeed | None:

@@ -39,6 +39,7 @@ import time
 import numpy as np
 
 from stlc import deadline, interrupt, vehicles
+from stlc.planning import words
 from stlc.backends import choices
 from stlc.backends.base import SolverStatus
 from stlc.backends.casadi_nlp import (
@@ -198,8 +199,8 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         stages.append(st)
         if not quiet:
             print(f"  {label}: λ = {lam_:g}, {st.iterations} iterations, {st.status}"
-                  f"{' (converged)' if st.converged else ''}, planner ρ̃ {st.planner:+.4f}, "
-                  f"exact {exact:+.4f} ({dt_:.2f} s)", file=sys.stderr)
+                  f"{' (converged)' if st.converged else ''}, planner ρ̃ {words.number(st.planner)}, "
+                  f"exact ρ {words.number(exact)} ({dt_:.2f} s)", file=sys.stderr)
         return st
 
     if (warm or ENERGY_FIRST) and (obj.energy_weight > 0 or obj.forward_weight > 0):

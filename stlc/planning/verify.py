@@ -136,6 +136,7 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     from stlc.planning.holdable import end_state, flag
 
     sol = judge(problem, sol).apply(sol)
+    sol.smoothing.setdefault("threshold", problem.threshold)  # κ, named beside every verdict
     sol.end_state = end_state(problem.vehicles(), sol.channels)
     plan_energy(problem, sol)
     sol.notes.extend(flag(problem.hold_end, sol.end_state))
@@ -148,7 +149,7 @@ def corner_cuts(problem: PlanningProblem, channels: dict, times) -> list[str]:
     world-frame obstacle than the vehicle's radius (or touches it), although the samples
     themselves are what the monitor judges (``stlc.analysis.clearance``: exact segment-box
     distance)."""
-    from stlc.analysis.clearance import segment_box_distance
+    from stlc.analysis.clearance import segment_region_distance
 
     obstacles = [r for r in problem.program.scenario.by_kind("obstacle") if r.box.frame is None]
     notes = []
@@ -160,7 +161,7 @@ def corner_cuts(problem: PlanningProblem, channels: dict, times) -> list[str]:
         r = float(getattr(v, "radius", 0.0))
         worst = None
         for ob in obstacles:
-            d = segment_box_distance(P[:-1], P[1:], ob.box.lo, ob.box.hi)
+            d = segment_region_distance(P[:-1], P[1:], ob.box)
             k = int(np.argmin(d))
             if (d[k] < r - 1e-9 or d[k] <= 1e-12) and (worst is None or d[k] < worst[0]):
                 worst = (float(d[k]), k, ob.name)

@@ -207,7 +207,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
                                                   ("budget", cfg.compute_budget))
              if not is_aligned(x, dt)]
     # bounded by the mission's samples: a waypoint period longer than the horizon gives
-    # one segment to the end, never an NLP sized by the period (issue 23)
+    # one segment to the end, never an NLP sized by the period
     G = min(max(1, steps_ceil(cfg.waypoint_period, dt)), max(1, n - 1))
     M = min(2 * G - 1, max(1, n - 1))
     for tr in tracks.values():

@@ -113,8 +113,9 @@ WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": N
 def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | None,
           workers: int | None = None, scheduler: str | None = None,
           random: int | None = None, seed: int = 0, quiet: bool = False,
-          time_limit: float | None = None) -> int:
-    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``)."""
+          time_limit: float | None = None, collect: list | None = None) -> int:
+    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``);
+    ``collect``: a list that receives the finished rows (the Python API's table)."""
     from stlc.frontend.syntax import parse_file
     from stlc.output.directory import MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup, preflight
     from stlc.pipeline import select_missions
@@ -256,6 +257,8 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
         finally:
             _cleanup(stage)
     _close(client, cluster)
+    if collect is not None:
+        collect.extend(rows[i] for i in sorted(rows))
     if interrupted:
         raise KeyboardInterrupt
     if not quiet:
@@ -317,7 +320,8 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
     summary = {
         "file": path, "mission": mission, "instances": len(insts), "finished": len(rows),
         "interrupted": interrupted, "counts": counts,
-        "varied": [{"name": a.name, "lo": a.lo * a.scale, "hi": a.hi * a.scale, "n": a.n}
+        "varied": [{"name": a.name, "lo": a.lo * a.scale, "hi": a.hi * a.scale, "n": a.n,
+                    "unit": a.unit or "", "given": {"lo": a.lo, "hi": a.hi}}
                    for a in axes], "set": {n: t for n, t in fixed},
         "wall_s": wall, "per_instance_s": wall / max(len(rows), 1),
         "nlp_builds": sum(1 for r in rows if r.get("built")) + (lost or {}).get("builds", 0),

@@ -277,7 +277,7 @@ def _region(ck: Context, kind: str, name: str, node: ast.Node, span: Span, frame
         ck.failed.add(name)
         return None
     placed = name if frame is None and name in ck.placed else None
-    reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame, placed))
+    reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame, placed, v.box.shape))
     if placed:  # the centre is a parameter of the formulas (--set NAME.center.x=...)
         for k, a in enumerate("xyz"):
             ck.params[f"{name}.center.{a}"] = (v.box.lo[k] + v.box.hi[k]) / 2
