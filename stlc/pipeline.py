@@ -268,15 +268,15 @@ def _falls_back(chain, sol) -> bool:
 
 
 def _fallback(problem, first, quiet: bool):
-    """Plan ``problem`` with the ``nlp`` chain after an unconverged exact chain; keep the
-    verified plan with the larger exact robustness (ties: the exact chain's).  Both plans
-    are judged by the exact monitor; the record says what ran."""
+    """Plan ``problem`` with the ``nlp`` chain (on knots if long) after an unconverged exact
+    chain; keep the verified plan with the larger exact robustness (ties: the exact chain's).
+    Both plans are judged by the exact monitor; the record says what ran."""
+    from stlc.backends.knots import KnotNlp
     from stlc.backends.select import select
-
-    chain = select(problem, "nlp", quiet)
+    chain = select(problem, "nlp" if KnotNlp().accepts(problem) else "knots", quiet)
     if not quiet:
         print(f"{problem.mission.name}: the exact MILP stopped without a satisfying plan "
-              f"({first.solver.get('return_status')}); falling back to chain `nlp`: "
+              f"({first.solver.get('return_status')}); falling back to chain `{chain.name}`: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
     sol = _run_verified(problem, chain)
     sol.solver["chain"]["fallback_from"] = first.solver["chain"]

@@ -74,8 +74,12 @@ def test_a_long_fine_grid_is_coarsened_past_the_step_cap():
     f = _always(0.0, 60.0)
     assert milp_seed.MAX_SAMPLES == 61
     assert milp_seed.seed_factor(TimeGrid(0.1, 600), f) * 0.1 == pytest.approx(1.0)
+    # 120 s: coarsened up to MAX_COARSE_S only (1 s, 121 samples): the clearance of a
+    # coarser path (v·h/2 + a·h²/8) would close every passage
+    from stlc.backends.seed_grid import MAX_COARSE_S
+
     m = milp_seed.seed_factor(TimeGrid(0.1, 1200), f)
-    assert 1200 // m + 1 <= milp_seed.MAX_SAMPLES
+    assert m * 0.1 == pytest.approx(MAX_COARSE_S) and 1200 // m + 1 == 121
 
 
 def test_the_seed_path_is_sampled_exactly_onto_the_mission_grid():

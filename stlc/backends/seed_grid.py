@@ -17,6 +17,9 @@ from stlc.semantics.timegrid import TimeGrid
 
 MAX_STEP_S = 0.5  #: the coarsest seed step (corner cuts between samples stay ≲ v·h/2)
 MAX_SAMPLES = 61  #: a finer seed grid than this is coarsened past MAX_STEP_S if allowed
+#: … but never past this: a 120 s patrol's grid went to 5 s, where the clearance that keeps
+#: the path between samples out of obstacles (v·h/2 + a·h²/8) was 8 m and blocked every way
+MAX_COARSE_S = 1.0
 TOL = 1e-9
 
 
@@ -34,8 +37,8 @@ def bounds_of(f: ir.Formula) -> set[float]:
 def seed_factor(grid: TimeGrid, formula: ir.Formula, max_step: float = MAX_STEP_S,
                 max_samples: int = MAX_SAMPLES) -> int:
     """The largest m such that m·dt ≤ ``max_step`` (or, when the grid would keep more than
-    ``max_samples`` samples, any m) divides the horizon's intervals and every finite bound
-    of a temporal operator of ``formula`` on the grid."""
+    ``max_samples`` samples, m·dt ≤ ``MAX_COARSE_S``) divides the horizon's intervals and
+    every finite bound of a temporal operator of ``formula`` on the grid."""
     dt, N = grid.dt, grid.n_intervals
     times = bounds_of(formula)
 
@@ -49,7 +52,8 @@ def seed_factor(grid: TimeGrid, formula: ir.Formula, max_step: float = MAX_STEP_
     for m in range(2, N + 1):
         if not ok(m):
             continue
-        if m * dt <= max_step + TOL or (N // best) + 1 > max_samples:
+        if m * dt <= max_step + TOL or ((N // best) + 1 > max_samples
+                                        and m * dt <= MAX_COARSE_S + TOL):
             best = m
         else:
             break
