@@ -66,23 +66,29 @@ def check_paths(paths: list[str], sets: list[str] | tuple[str, ...] = ()
     return diags, sources
 
 
-def monitored_formulas(program: model.Program) -> dict[str, ir.Formula]:
+def monitored_formulas(program: model.Program, mission: str | None = None
+                       ) -> dict[str, ir.Formula]:
     """What ``stlc monitor`` evaluates: top-level specs, then each mission's named specs and
-    its requirement (as ``<mission>``)."""
-    out: dict[str, ir.Formula] = dict(program.specs)
+    its requirement (as ``<mission>``); with ``mission`` only that mission's."""
+    out: dict[str, ir.Formula] = dict(program.specs) if mission is None else {}
     for m in program.missions.values():
+        if mission is not None and m.name != mission:
+            continue
         for name, f in m.specs.items():
             out.setdefault(name, f)
         out.setdefault(m.name, m.requirement)
     return out
 
 
-def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
-    """Exact robustness of every monitored formula on a trace (``stlc.analysis.trace.Trace``)."""
-    from stlc.analysis import monitor_demand
+def monitor_trace(program: model.Program, trace, mission: str | None = None
+                  ) -> dict[str, dict]:
+    """Exact robustness of every monitored formula on a trace (``stlc.analysis.trace.Trace``)
+    and its verdict by the one rule (``stlc.analysis.verdict``) at its κ."""
+    from stlc.analysis import monitor_demand, verdict
     from stlc.analysis.trace import check_signals
 
-    formulas = monitored_formulas(program)
+    formulas = monitored_formulas(program, mission)
+    kappas = verdict.margins(program, mission)
     # all at once: named specs share subformulas (a chain of hundreds of specs, each using
     # the previous one, is evaluated in linear time and without recursion)
     check_signals(trace, ir.signals(ir.And(tuple(formulas.values()))))
@@ -90,8 +96,8 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
                                             trace.channels, program.params, n=trace.n)
     out = {}
     for name, v in zip(formulas, values):
-        r = float(v)
-        out[name] = {"robustness": r, "satisfied": bool(r > 0)}
+        r, k = float(v), kappas[name]
+        out[name] = {"robustness": r, "satisfied": verdict.judge(r, k), "kappa": k}
     return out
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stlc import vehicles
-from stlc.analysis import monitor, smooth
+from stlc.analysis import monitor, smooth, verdict
 from stlc.planning.solution import Solution, SpecResult, Verdict
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
@@ -102,14 +102,14 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
         specs[name] = SpecResult(
             robustness=float(r),
             smooth=float(smooth.smooth_robustness(spec.normal, dt, ch, params, lam, method)),
-            satisfied=bool(r >= kappa),
+            satisfied=verdict.satisfied(r, kappa),
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
             line=spec.span.line,
             binding_line=pred.span.line if pred is not None and pred.span.known else 0,
             binding_origin=pred.origin if pred is not None else None)
     status = sol.status
-    satisfied = exact >= kappa and sol.feasible
+    satisfied = verdict.satisfied(exact, kappa) and sol.feasible
     if status == Verdict.INFEASIBLE and not satisfied:
         pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
     elif status != Verdict.SOLVER_FAILED:
