@@ -383,12 +383,15 @@ class ExactMilp(Backend):
             for lv in low.vehicles:
                 x[lv.x[0]] = np.asarray(low.milp.lo)[lv.x[0]]
         ch: dict[str, np.ndarray] = {}
+        solver_states: dict[str, np.ndarray] = {}
         dev = 0.0
         for lv, v in zip(low.vehicles, problem.vehicles()):
             xs, uu = lv.simulate(x)
             dev = max(dev, float(np.max(np.abs(xs - x[lv.x]))) if res.x is not None else 0.0)
             for i, c in enumerate(lv.states):
                 ch[c] = xs[:, i]
+                if res.x is not None:
+                    solver_states[c] = np.array(x[lv.x][:, i], dtype=float)
             for j, c in enumerate(lv.inputs):
                 ch[c] = np.concatenate([uu[:, j], uu[-1:, j]]) if n > 1 else uu[:1, j]
             vm = vehicles.model_of(v)
@@ -416,7 +419,7 @@ class ExactMilp(Backend):
             problem_size={"samples": n, "variables": low.milp.n_cols,
                           "constraints": len(low.milp.rows),
                           "binaries": low.milp.n_binaries},
-            feasible=not failed and dev <= 1e-5)
+            feasible=not failed and dev <= 1e-5, solver_states=solver_states)
         if status == SolverStatus.MAX_TIME:
             sol.notes.append(f"the MILP stopped on its time limit (not converged): best plan "
                              f"ρ̂ = {rho:.6g}, bound {bound:.6g}")

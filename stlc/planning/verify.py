@@ -19,6 +19,7 @@ import numpy as np
 from stlc import vehicles
 from stlc.analysis import monitor, smooth, verdict
 from stlc.planning.solution import Solution, SpecResult, Verdict
+from stlc.planning.boundary import reconcile
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics.specs import reads_payload
@@ -96,6 +97,12 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
     method = problem.smoothing.method
     ch, events = recompute_derived(problem, sol.channels)
     exact = float(monitor.robustness(problem.requirement, dt, ch, params))
+    notes = []
+    on_face = reconcile(problem, sol, exact, kappa, recompute_derived,
+                        lambda c: monitor.robustness(problem.requirement, dt, c, params))
+    if on_face is not None:  # rounding of the re-simulation, not of the plan
+        ch, events, exact = on_face.channels, on_face.events, on_face.robustness
+        notes.append(on_face.note)
     specs = {}
     for name, spec in problem.specs.items():
         r, k, pred = monitor.binding(spec.normal, dt, ch, params)
@@ -114,7 +121,6 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
         pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
     elif status != Verdict.SOLVER_FAILED:
         status = Verdict.SATISFIED if satisfied else Verdict.VIOLATED
-    notes = []
     if 0 <= exact < kappa:
         notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
                      f"{kappa:g}: the margin fell short")
