@@ -171,8 +171,9 @@ def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
         sol = _fallback(problem, sol, quiet)
     if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
         from stlc.backends.milp_conflict import explain_infeasible
+        from stlc.planning.frame import to_local
 
-        explain_infeasible(problem, sol, quiet=quiet)
+        explain_infeasible(to_local(problem)[0], sol, quiet=quiet)  # proved in local numbers
     time_limited(sol)
     sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
@@ -184,10 +185,11 @@ def _run_verified(problem, chain):
     from stlc.backends.base import run_chain
     from stlc.backends.select import chain_record
     from stlc.planning.fallback import fallback
+    from stlc.planning.frame import run_local
     from stlc.planning.verify import verify
 
-    try:
-        sol, sols = run_chain(problem, chain.backends)
+    try:  # planned in a well-scaled local frame, mapped back (``stlc.planning.frame``)
+        sol, sols = run_local(run_chain, problem, chain.backends)
     except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
         deadline.caught()
         sol, sols = fallback(problem), []
