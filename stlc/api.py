@@ -122,7 +122,9 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
     """Plan ``mission`` (its name; optional when the program has one mission), verify the
     plan with the exact monitor and run its risk cases (``risk=False`` skips them).
     ``set``: constants to override, as in ``with_constants``.  ``quiet=False`` prints the
-    solver's progress to stderr."""
+    solver's progress to stderr.  Safe under threads: plannings in one process run one
+    at a time (``stlc.deadline.serial``; a second thread waits), so use processes to plan
+    in parallel."""
     import time
 
     from stlc.pipeline import assess_risk, plan, select_missions

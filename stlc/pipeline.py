@@ -146,7 +146,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     chosen backend chain (a sweep's warm start from its plan library).  A caller without a
     time limit (the API, a sweep's instance) plans under the default one (``stlc.deadline``):
     no solve runs unbounded."""
-    with deadline.bounded():
+    with deadline.serial(), deadline.bounded():  # one planning at a time per process
         return _plan(program, mission, quiet=quiet, step=step, horizon=horizon,
                      backend=backend, values=values, chain=chain)
 
