@@ -184,7 +184,7 @@ def _run_verified(problem, chain):
     (the run's time limit) gives the hover plan, judged the same way."""
     from stlc.backends.base import run_chain
     from stlc.backends.select import chain_record
-    from stlc.planning.fallback import fallback
+    from stlc.planning.fallback import NoPlanFound, fallback, not_found
     from stlc.planning.frame import run_local
     from stlc.planning.verify import verify
 
@@ -193,6 +193,8 @@ def _run_verified(problem, chain):
     except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
         deadline.caught()
         sol, sols = fallback(problem), []
+    except NoPlanFound as e:  # a planner's own model: "no plan found", never "none exists"
+        sol, sols = not_found(problem, e), []
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     sol.solver["chain"] = chain_record(chain, sols)
