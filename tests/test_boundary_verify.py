@@ -13,6 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from stlc.planning.boundary import DEFECT_TOL, reconcile
+from stlc.semantics import ir
 from stlc.strictjson import channels_csv
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -69,21 +70,25 @@ def _fake(states, resim, feasible=True):
     return SimpleNamespace(solver_states=states, channels=resim, feasible=feasible)
 
 
+FLOOR_Z = SimpleNamespace(requirement=ir.Pred(ir.Sig("d.pos.z"), "d.pos.z >= 0"))  # ρ = min z
+
+
 def test_reconcile_accepts_rounding_only():
     z_solver = np.array([0.0, 0.5, 1.0])
-    rob = lambda ch: float(np.min(ch["z"]))  # noqa: E731  ρ = min z (floor at 0)
+    rob = lambda ch: float(np.min(ch["d.pos.z"]))  # noqa: E731
     same = lambda problem, ch: (ch, [])  # noqa: E731
-    resim = {"z": np.array([0.0, 0.5, 1.0]) - np.array([9e-15, 0, 0])}
-    got = reconcile(None, _fake({"z": z_solver}, resim), rob(resim), 0.0, same, rob)
+    resim = {"d.pos.z": np.array([0.0, 0.5, 1.0]) - np.array([9e-15, 0, 0])}
+    got = reconcile(FLOOR_Z, _fake({"d.pos.z": z_solver}, resim), rob(resim), 0.0, same, rob)
     assert got is not None and got.robustness == 0.0 and got.defect == 9e-15
-    assert "boundary" in got.note
-    far = {"z": z_solver - 10 * DEFECT_TOL}  # a real defect: not rounding
-    assert reconcile(None, _fake({"z": z_solver}, far), rob(far), 0.0, same, rob) is None
-    # solver samples that miss κ too: nothing to reconcile
-    low = {"z": z_solver - 1e-15}
-    assert reconcile(None, _fake({"z": z_solver - 1e-3}, low), rob(low), 0.0, same,
-                     rob) is None
-    assert reconcile(None, _fake({"z": z_solver}, resim, False), -9e-15, 0.0, same,
+    assert "solver's own samples" in got.note
+    far = {"d.pos.z": z_solver - 10 * DEFECT_TOL}  # a real defect, not rounding: kept violated
+    assert reconcile(FLOOR_Z, _fake({"d.pos.z": z_solver}, far), rob(far), 0.0, same, rob) is None
+    # the solver's feasibility tolerance (−1e-15 under a face): put on the face
+    low = {"d.pos.z": z_solver - 1e-15}
+    got = reconcile(FLOOR_Z, _fake({}, low), rob(low), 0.0, same, rob)
+    assert got is not None and got.robustness == 0.0 and "put on it" in got.note
+    assert list(got.channels["d.pos.z"]) == [0.0, 0.5 - 1e-15, 1.0 - 1e-15]  # only at the face
+    assert reconcile(FLOOR_Z, _fake({"d.pos.z": z_solver}, resim, False), -9e-15, 0.0, same,
                      rob) is None
 
 

@@ -4,13 +4,16 @@
 A backend re-simulates its plan from the inputs (``Solution.channels``: states by the
 exact discrete model), so the written plan obeys the dynamics exactly; that re-simulation
 rounds, and a state the solver put exactly on a face (z = 0) can come back as −9e-15 m.
-The verdict must not turn on such a rounding.  When the re-simulated plan falls short of
-κ and the backend kept its own state samples (``Solution.solver_states``), ``reconcile``
-judges the solver's samples too: if they reach κ and they differ from the re-simulated
-states by at most ``DEFECT_TOL`` (relative to the states' scale) the solver's samples are
-the plan — they are what is verified and written — and the dynamics defect is a note,
-not a violation.  A larger defect, or solver samples that miss κ too, leave the verdict
-to the re-simulated plan.
+The verdict must not turn on such a rounding, nor on the solver's feasibility tolerance
+(a goal face reached at x = 7 − 5e-15 m where any point of the box would do).  When the
+re-simulated plan falls short of κ, ``reconcile`` judges, in order, the backend's own state
+samples (``Solution.solver_states``), then the plan with every position sample within
+``DEFECT_TOL`` of a face of a predicate put on that face, then the solver's samples so
+moved.  The first that reaches κ while differing from the re-simulated states by at most
+``DEFECT_TOL`` (relative to the states' scale) is the plan — what is verified and written,
+so ``stlc monitor`` on the written file agrees — and its dynamics defect is a note, not a
+violation.  A larger defect, or candidates that miss κ too, leave the verdict to the
+re-simulated plan.
 
 ``DEFECT_TOL`` = 1e-9 relative: far below any physical effect (1 nm on a 1 m scale, 5 mm
 at a UTM northing of 5.4e6 m in absolute numbers, where ``stlc.planning.frame`` plans in
@@ -54,27 +57,75 @@ def defect(channels: dict, solver_states: dict) -> tuple[float, float]:
     return worst, scale
 
 
+def faces(formula) -> dict[str, np.ndarray]:
+    """Signal → the constants it is compared with in the formula's predicates written as
+    ``s − c`` or ``c − s`` (box faces, bounds)."""
+    from stlc.semantics import ir
+
+    out: dict[str, set] = {}
+    for p in ir.predicates(formula):
+        e = p.expr
+        if isinstance(e, ir.Bin) and e.op == "-":
+            if isinstance(e.left, ir.Sig) and isinstance(e.right, ir.Const):
+                out.setdefault(e.left.name, set()).add(e.right.value)
+            elif isinstance(e.left, ir.Const) and isinstance(e.right, ir.Sig):
+                out.setdefault(e.right.name, set()).add(e.left.value)
+        elif isinstance(e, ir.Sig):
+            out.setdefault(e.name, set()).add(0.0)
+    return {k: np.array(sorted(v), dtype=float) for k, v in out.items()}
+
+
+def snapped(channels: dict, states, constants: dict[str, np.ndarray]) -> dict:
+    """The state channels ``states`` of ``channels`` with every sample within
+    ``DEFECT_TOL`` (relative) of a face constant of its signal put on it."""
+    out = {}
+    for c in states:
+        v = np.array(channels[c], dtype=float)
+        for k in constants.get(c, ()):
+            if np.isfinite(k):
+                near = np.abs(v - k) <= DEFECT_TOL * max(1.0, abs(k))
+                v[near] = k
+        out[c] = v
+    return out
+
+
 def reconcile(problem, sol, exact: float, kappa: float, recompute, robustness
               ) -> Reconciled | None:
-    """The solver's samples of ``sol`` as the plan, or None (see the module docstring).
-    ``recompute(problem, channels) -> (channels, events)`` re-derives the derived signals,
-    ``robustness(channels) -> float`` is the exact monitor on the requirement."""
+    """The plan of ``sol`` judged on its own numbers, or None (see the module docstring).
+    Candidates, in order: the solver's own samples; the re-simulated samples and the
+    solver's with every position within the tolerance of a face it must not cross put on
+    that face (the solver's feasibility tolerance leaves ±1e-15 there).  The first that
+    reaches κ with a dynamics defect within the tolerance is the plan judged and written.
+    ``recompute(problem, channels) -> (channels, events)`` re-derives the derived
+    signals, ``robustness(channels) -> float`` is the exact monitor on the requirement."""
     from stlc.analysis import verdict
 
-    states = getattr(sol, "solver_states", None) or {}
-    if not states or verdict.satisfied(exact, kappa) or not sol.feasible:
+    if verdict.satisfied(exact, kappa) or not sol.feasible:
         return None
-    gap, scale = defect(sol.channels, states)
-    if not gap <= DEFECT_TOL * scale:
-        return None
-    ch = dict(sol.channels)
-    ch.update({c: np.asarray(v, dtype=float) for c, v in states.items()})
-    ch, events = recompute(problem, ch)
-    rho = float(robustness(ch)) + 0.0  # −0.0 (a max of −0.0 terms) reads as 0
-    if not verdict.satisfied(rho, kappa):
-        return None
-    note = (f"the plan's robustness {rho:+.3g} is on the boundary κ = {kappa:g}: the "
-            f"re-simulation of its inputs rounds to {exact:+.3g}, a dynamics defect of "
-            f"{gap:.1e} (below the rounding tolerance {DEFECT_TOL:g} × {scale:g}); the "
-            "solver's own samples are the plan judged and written")
-    return Reconciled(ch, events, rho, gap, note)
+    states = dict(getattr(sol, "solver_states", None) or {})
+    names = list(states) or [c for c in sol.channels if ".pos." in c]
+    constants = faces(problem.requirement)
+    tries = []
+    if states:
+        tries.append(("the solver's own samples", states))
+    tries.append(("the plan with positions within the tolerance of a face put on it",
+                  snapped(sol.channels, names, constants)))
+    if states:
+        tries.append(("the solver's samples with positions within the tolerance of a face "
+                      "put on it", snapped({**sol.channels, **states}, names, constants)))
+    for label, cand in tries:
+        gap, scale = defect(sol.channels, cand)
+        if not gap <= DEFECT_TOL * scale:
+            continue
+        ch = dict(sol.channels)
+        ch.update({c: np.asarray(v, dtype=float) for c, v in cand.items()})
+        ch, events = recompute(problem, ch)
+        rho = float(robustness(ch)) + 0.0  # −0.0 (a max of −0.0 terms) reads as 0
+        if not verdict.satisfied(rho, kappa):
+            continue
+        note = (f"the plan's robustness {rho:+.3g} is on the boundary κ = {kappa:g}: the "
+                f"re-simulated plan gives {exact:+.3g}; {label} — a dynamics defect of "
+                f"{gap:.1e} m at most (below the rounding tolerance {DEFECT_TOL:g} × "
+                f"{scale:g}) — are the plan judged and written")
+        return Reconciled(ch, events, rho, gap, note)
+    return None
