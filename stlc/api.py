@@ -57,11 +57,14 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
     """Plan ``mission`` (its name; optional when the program has one mission), verify the
     plan with the exact monitor and run its risk cases (``risk=False`` skips them).
     ``set``: what ``--set`` gives another value — constants (as ``with_constants``), a
-    human's pose field, a vehicle's start, a region's placement, with units.  ``quiet=False`` prints the
-    solver's progress to stderr.  ``time_limit`` (s, as ``--time-limit``; else the mission's
-    ``time_limit``, else the default limit) stops the search and returns the best verified
-    plan (status ``stopped`` unless it is satisfied).  ``backend`` forces a chain, as
-    ``--backend``: ``milp``, ``nlp``, ``kinematic``, ``team`` or a backend's name."""
+    human's pose field, a vehicle's start, a region's placement, with units.
+    ``quiet=False`` prints the solver's progress to stderr.  ``time_limit`` (s, as
+    ``--time-limit``; else the mission's ``time_limit``, else the default limit) stops the
+    search and returns the best verified plan (status ``stopped`` unless it is satisfied).
+    ``backend`` forces a chain, as ``--backend``: ``milp``, ``nlp``, ``kinematic``, ``team``
+    or a backend's name.  Safe under threads: plannings in one process run one at a time
+    (``stlc.deadline.serial``; a second thread waits), so use processes to plan in
+    parallel."""
     import time
 
     from stlc import deadline

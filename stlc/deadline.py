@@ -143,6 +143,21 @@ def limited(seconds: float | None, start: float | None = None,
 
 
 @contextlib.contextmanager
+def serial() -> Iterator[None]:
+    """One planning at a time per process: the solvers' cached NLPs (CasADi/IPOPT objects,
+    ``stlc.backends.nlp_cache``) and this module's watchdog are process-wide, and two
+    threads solving one cached NLP at once corrupt its memory (the interpreter aborts).  A
+    second thread that plans (``stlc.compile`` from a thread pool) waits for the first:
+    the API is safe under threads, and serialised; for parallel planning use processes
+    (``stlc sweep`` runs one planning thread per worker process)."""
+    with _planning:
+        yield
+
+
+_planning = threading.RLock()
+
+
+@contextlib.contextmanager
 def bounded(seconds: float | None = None) -> Iterator[None]:
     """A limit of ``seconds`` (None: the default, ``default_limit``) for a block that runs
     solves, without the watchdog (``simulate``'s replans, a sweep's instance in a Dask

@@ -219,22 +219,46 @@ class _Index:
     one name per declaration): a file with thousands of errors then costs linear time."""
 
     def __init__(self) -> None:
-        self.names: frozenset = frozenset()
+        self.names: frozenset | set = frozenset()
         self.by_len: dict[int, list[str]] = {}
         self.by_first: dict[tuple[int, str], list[str]] = {}  # (length, first letter)
         self.lower: dict[str, str] = {}
+        #: ``update_parts``: the collections read (held, so their ids stay theirs) and how
+        #: many entries of each are indexed
+        self.parts: tuple = ()
+        self.seen: list[int] = []
 
-    def update(self, cands: frozenset) -> None:
-        if cands == self.names:
-            return
-        if not self.names <= cands:
-            self.__init__()
-        for c in sorted(cands - self.names, key=str):
+    def _add(self, names) -> None:
+        for c in sorted(names, key=str):
             if isinstance(c, str) and len(c) <= MAX_SUGGEST_LEN:
                 self.by_len.setdefault(len(c), []).append(c)
                 self.by_first.setdefault((len(c), c[:1].lower()), []).append(c)
                 self.lower.setdefault(c.lower(), c)
+
+    def update(self, cands: frozenset) -> None:
+        if self.parts or not self.names <= cands:
+            self.__init__()
+        if cands == self.names:
+            return
+        self._add(cands - self.names)
         self.names = cands
+
+    def update_parts(self, parts: tuple) -> None:
+        """Index the union of ``parts`` — insertion-ordered collections that only grow
+        between calls (a checker's scopes: one name per declaration) — reading only the
+        entries added since the last call: a file with thousands of unknown names costs
+        linear time, not one pass over every bound name per name."""
+        if len(parts) != len(self.parts) or any(a is not b for a, b in zip(parts, self.parts)) \
+                or any(len(p) < k for p, k in zip(parts, self.seen)):
+            self.__init__()
+            self.parts, self.seen, self.names = parts, [0] * len(parts), set()
+        for i, p in enumerate(parts):
+            k = self.seen[i]
+            if len(p) > k:
+                new = [c for c in (list(p)[k:] if k else p) if c not in self.names]
+                self.names.update(new)
+                self._add(new)
+                self.seen[i] = len(p)
 
 
 _INDEX = _Index()
@@ -248,7 +272,12 @@ def did_you_mean(name: str, candidates) -> str | None:
     length and with the same first letter first; very long names get no suggestion."""
     if not name or len(name) > MAX_SUGGEST_LEN:
         return None
-    _INDEX.update(candidates if isinstance(candidates, frozenset) else frozenset(candidates))
+    parts = getattr(candidates, "parts", None)
+    if parts is not None:  # a view over growing scopes (``check.context.Names``)
+        _INDEX.update_parts(parts)
+    else:
+        _INDEX.update(candidates if isinstance(candidates, frozenset)
+                      else frozenset(candidates))
     n = len(name)
     lengths = sorted((m for m in range(1, MAX_SUGGEST_LEN + 1)
                       if 2 * min(n, m) >= 0.6 * (n + m)), key=lambda m: abs(m - n))

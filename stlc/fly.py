@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from stlc import deadline
+from stlc.analysis import verdict
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.pipeline import load, mission_span, plan_in_time, select_missions
@@ -96,7 +97,7 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
         cfg = m.risk
         record["runs"] = {
             **engine.run_statistics(many["robustness"], cfg.betas if cfg else DEFAULT_BETAS,
-                                    cfg.delta if cfg else DEFAULT_DELTA),
+                                    cfg.delta if cfg else DEFAULT_DELTA, float(m.threshold)),
             "tracking": {"max_error_m": _stats(many["err_max"]),
                          "rms_error_m": _stats(many["err_rms"])},
             "chunk": engine.CHUNK, "wall_s": time.perf_counter() - t2,
@@ -188,7 +189,7 @@ def _record(m, sol, b, setup, seed: int, pushes, reference: dict) -> dict:
         "mission": m.name,
         "plan": {"robustness": json_number(sol.robustness_exact), "status": str(sol.status),
                  "specs": {k: json_number(s.robustness) for k, s in sol.specs.items()}},
-        "flown": {"robustness": json_number(rho), "satisfied": bool(rho > 0),
+        "flown": {"robustness": json_number(rho), "satisfied": verdict.judge(rho, float(m.threshold)),
                   "specs": {k: json_number(float(v[0])) for k, v in b.robustness.items()
                             if k != m.name}},
         "tracking": {"max_error_m": float(b.err_max[0]), "rms_error_m": float(b.err_rms[0]),
@@ -360,7 +361,8 @@ def monitor_log(args, program):
                                     "give the step: `--resample 0.1`")])
     trace = read_log(args.log, list(program.vehicles), dict(args.maps), dt,
                      {v: x.span for v, x in program.vehicles.items()})
-    res = monitor_available(monitored_formulas(program), trace, program.params)
+    res = monitor_available(monitored_formulas(program, args.mission), trace, program.params,
+                            verdict.margins(program, args.mission))
     for name, v in res.items():
         if v.get("missing"):
             print(f"note: `{name}` is undefined: the log has no " + ", ".join(v["missing"]),

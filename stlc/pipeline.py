@@ -69,23 +69,29 @@ def check_paths(paths: list[str], sets: list[str] | tuple[str, ...] = ()
     return diags, sources
 
 
-def monitored_formulas(program: model.Program) -> dict[str, ir.Formula]:
+def monitored_formulas(program: model.Program, mission: str | None = None
+                       ) -> dict[str, ir.Formula]:
     """What ``stlc monitor`` evaluates: top-level specs, then each mission's named specs and
-    its requirement (as ``<mission>``)."""
-    out: dict[str, ir.Formula] = dict(program.specs)
+    its requirement (as ``<mission>``); with ``mission`` only that mission's."""
+    out: dict[str, ir.Formula] = dict(program.specs) if mission is None else {}
     for m in program.missions.values():
+        if mission is not None and m.name != mission:
+            continue
         for name, f in m.specs.items():
             out.setdefault(name, f)
         out.setdefault(m.name, m.requirement)
     return out
 
 
-def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
-    """Exact robustness of every monitored formula on a trace (``stlc.analysis.trace.Trace``)."""
-    from stlc.analysis import monitor_demand
+def monitor_trace(program: model.Program, trace, mission: str | None = None
+                  ) -> dict[str, dict]:
+    """Exact robustness of every monitored formula on a trace (``stlc.analysis.trace.Trace``)
+    and its verdict by the one rule (``stlc.analysis.verdict``) at its κ."""
+    from stlc.analysis import monitor_demand, verdict
     from stlc.analysis.trace import check_signals
 
-    formulas = monitored_formulas(program)
+    formulas = monitored_formulas(program, mission)
+    kappas = verdict.margins(program, mission)
     # all at once: named specs share subformulas (a chain of hundreds of specs, each using
     # the previous one, is evaluated in linear time and without recursion)
     check_signals(trace, ir.signals(ir.And(tuple(formulas.values()))))
@@ -93,8 +99,8 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
                                             trace.channels, program.params, n=trace.n)
     out = {}
     for name, v in zip(formulas, values):
-        r = float(v)
-        out[name] = {"robustness": r, "satisfied": bool(r > 0)}
+        r, k = float(v), kappas[name]
+        out[name] = {"robustness": r, "satisfied": verdict.judge(r, k), "kappa": k}
     return out
 
 
@@ -143,7 +149,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     chosen backend chain (a sweep's warm start from its plan library).  A caller without a
     time limit (the API, a sweep's instance) plans under the default one (``stlc.deadline``):
     no solve runs unbounded."""
-    with deadline.bounded():
+    with deadline.serial(), deadline.bounded():  # one planning at a time per process
         return _plan(program, mission, quiet=quiet, step=step, horizon=horizon,
                      backend=backend, values=values, chain=chain)
 
@@ -168,8 +174,9 @@ def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
         sol = _fallback(problem, sol, quiet)
     if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
         from stlc.backends.milp_conflict import explain_infeasible
+        from stlc.planning.frame import to_local
 
-        explain_infeasible(problem, sol, quiet=quiet)
+        explain_infeasible(to_local(problem)[0], sol, quiet=quiet)  # proved in local numbers
     time_limited(sol)
     sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
@@ -180,14 +187,17 @@ def _run_verified(problem, chain):
     (the run's time limit) gives the hover plan, judged the same way."""
     from stlc.backends.base import run_chain
     from stlc.backends.select import chain_record
-    from stlc.planning.fallback import fallback
+    from stlc.planning.fallback import NoPlanFound, fallback, not_found
+    from stlc.planning.frame import run_local
     from stlc.planning.verify import verify
 
-    try:
-        sol, sols = run_chain(problem, chain.backends)
+    try:  # planned in a well-scaled local frame, mapped back (``stlc.planning.frame``)
+        sol, sols = run_local(run_chain, problem, chain.backends)
     except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
         deadline.caught()
         sol, sols = fallback(problem), []
+    except NoPlanFound as e:  # a planner's own model: "no plan found", never "none exists"
+        sol, sols = not_found(problem, e), []
     if len(sols) > 1 and sols[0].routes:
         _team_comparisons(sols)
     sol.solver["chain"] = chain_record(chain, sols)

@@ -143,9 +143,11 @@ def test_bounds_bracket_the_truth_normal():
 # --------------------------------------------------------------------------- p(violation)
 
 
-def test_p_violation_counts_zero_as_violation():
+def test_p_violation_counts_below_kappa():
+    """The one verdict rule (ρ ≥ κ satisfies, κ = 0 without a threshold): ρ = 0 holds."""
     pv = p_violation(RHO10, 0.05)
-    assert pv["count"] == 3 and pv["value"] == pytest.approx(0.3)  # −2, −1, 0
+    assert pv["count"] == 2 and pv["value"] == pytest.approx(0.2)  # −2, −1
+    assert p_violation(RHO10, 0.05, 0.5)["count"] == 3  # −2, −1, 0
     assert pv["upper"] >= pv["value"]
     assert p_violation(np.ones(5), 0.05)["value"] == 0.0
     assert p_violation(-np.ones(5), 0.05)["upper"] == 1.0

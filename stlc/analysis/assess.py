@@ -62,7 +62,8 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
     results = riskmod.run_cases(cfg, requirement, specs,
                                 mission.step if dt is None else dt, sol.channels,
                                 program.params, smoothing.lam,
-                                smoothing.method, base=base, shared=shared)
+                                smoothing.method, base=base, shared=shared,
+                                kappa=float(mission.threshold))
     out = {"mission": mission.name, "cases": [r.to_json() for r in results]}
     if cfg.levels:  # the mission's risk levels, judged per case (``risk_levels``)
         from stlc.analysis.risk_levels import judge_levels

@@ -9,7 +9,8 @@ defined on the *cost* Z = −ρ, as in the paper, and reported back in robustnes
 
 Conventions (r_(1) ≤ … ≤ r_(K) are the sorted robustness samples, F̂ the empirical CDF of ρ)
 ----------------------------------------------------------------------------------------
-* satisfied ⇔ ρ > 0; a realisation with ρ ≤ 0 counts as a violation.
+* satisfied ⇔ ρ ≥ κ (``stlc.analysis.verdict``; κ the mission's threshold, 0 without
+  one); a realisation with ρ < κ counts as a violation.
 * DKW margin ε = sqrt(ln(2/δ) / (2K)): with probability ≥ 1 − δ the true CDF lies in the
   band F̂ − ε ≤ F ≤ F̂ + ε everywhere (Dvoretzky–Kiefer–Wolfowitz–Massart).
 * VaR: VaR_β(Z) = inf{α | F_Z(α) ≥ β}.  Reported ``value`` = −VaR_β(Z) with the empirical
@@ -35,7 +36,7 @@ Conventions (r_(1) ≤ … ≤ r_(K) are the sorted robustness samples, F̂ the 
 * ``to_json`` adds ``histogram`` (``robustness_histogram``: 40 bins over the finite exact
   ρ of the requirement, ±inf counted apart) and ``driver`` (the spec that is tightest in
   most violating realisations, ``violation_drivers``/``main_driver``).
-* p_violation: fraction of ρ ≤ 0, with a one-sided Clopper–Pearson upper bound at
+* p_violation: fraction of ρ < κ, with a one-sided Clopper–Pearson upper bound at
   confidence 1 − δ, computed without scipy (regularised incomplete beta by continued
   fraction, inverted by bisection).
 """
@@ -253,10 +254,13 @@ def shared_robustness(formulas: Mapping[str, Formula], dt: float,
     return exact, smooth
 
 
-def violation_drivers(requirement: np.ndarray, specs: Mapping[str, np.ndarray]) -> dict:
-    """For each realisation violating the requirement (ρ ≤ 0), the named spec with the
+def violation_drivers(requirement: np.ndarray, specs: Mapping[str, np.ndarray],
+                      kappa: float = 0.0) -> dict:
+    """For each realisation violating the requirement (ρ < κ), the named spec with the
     lowest robustness (ties: the first declared); counts and fractions per spec."""
-    bad = requirement <= 0.0
+    from stlc.analysis.verdict import violated
+
+    bad = violated(requirement, kappa)
     n_bad = int(np.count_nonzero(bad))
     names = list(specs)
     counts = np.zeros(len(names), dtype=int)
@@ -275,7 +279,7 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
                   support: tuple[float, float] | None = None,
                   robustness_fn: RobustnessFn | None = None,
                   smooth_fn: RobustnessFn | None = None,
-                  shared: Callable | None = None) -> CaseResult:
+                  shared: Callable | None = None, kappa: float = 0.0) -> CaseResult:
     """Sample the case's distributions (overriding ``base`` ones parameter by parameter),
     evaluate exact (and smooth) robustness of the requirement and every named spec for
     all K realisations and summarise.
@@ -311,10 +315,10 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
     nominal = float(rob(requirement, dt, chans, {k: float(v) for k, v in
                                                   nominal_params.items()}))
     spec_rho = {n: exact[f"spec:{n}"] for n in specs}
-    drivers = violation_drivers(exact["requirement"], spec_rho)
+    drivers = violation_drivers(exact["requirement"], spec_rho, kappa)
     spec_summary = {}
     for n, r in spec_rho.items():
-        pv = p_violation(r, cfg.delta)
+        pv = p_violation(r, cfg.delta, kappa)
         spec_summary[n] = {"p_violation": pv["value"], "p_violation_upper": pv["upper"],
                            "min": float(np.min(r)), "driver_count": drivers[n]["count"],
                            "driver_fraction": drivers[n]["fraction"]}
@@ -322,8 +326,8 @@ def evaluate_case(case: RiskCase, cfg: RiskConfig, requirement: Formula,
         name=case.name, K=K, delta=cfg.delta, seed=cfg.seed, betas=tuple(cfg.betas),
         epsilon=dkw_margin(K, cfg.delta), params=sampled, exact=exact, smooth=smooth,
         specs=tuple(specs), nominal_robustness=nominal, support=support,
-        exact_summary=summarize(exact["requirement"], cfg.betas, cfg.delta, support),
-        smooth_summary=(summarize(smooth["requirement"], cfg.betas, cfg.delta)
+        exact_summary=summarize(exact["requirement"], cfg.betas, cfg.delta, support, kappa),
+        smooth_summary=(summarize(smooth["requirement"], cfg.betas, cfg.delta, None, kappa)
                         if with_smooth else {}),
         spec_summary=spec_summary, drivers=drivers,
     )

@@ -176,21 +176,24 @@ def clopper_pearson_upper(count: int, K: int, delta: float) -> float:
     return beta_ppf(1.0 - delta, count + 1.0, float(K - count))
 
 
-def p_violation(rho, delta: float) -> dict[str, float]:
-    """Fraction of realisations with ρ ≤ 0 and its Clopper–Pearson upper bound."""
+def p_violation(rho, delta: float, kappa: float = 0.0) -> dict[str, float]:
+    """Fraction of realisations that violate (ρ < κ, ``stlc.analysis.verdict``) and its
+    Clopper–Pearson upper bound."""
+    from stlc.analysis.verdict import violated
+
     r = _sorted(rho)
-    count = int(np.count_nonzero(r <= 0.0))
+    count = int(np.count_nonzero(violated(r, kappa)))
     return {"value": count / r.size, "upper": clopper_pearson_upper(count, r.size, delta),
             "count": count}
 
 
 def summarize(rho, betas: Sequence[float], delta: float,
-              support: tuple[float, float] | None = None) -> dict:
+              support: tuple[float, float] | None = None, kappa: float = 0.0) -> dict:
     """VaR/CVaR for every β (keys ``f"{β:g}"``), p_violation and sample statistics."""
     r = _sorted(rho)
     return {
         "var": {f"{b:g}": var_bounds(r, b, delta) for b in betas},
         "cvar": {f"{b:g}": cvar_bounds(r, b, delta, support) for b in betas},
-        "p_violation": p_violation(r, delta),
+        "p_violation": p_violation(r, delta, kappa),
         "mean": float(np.mean(r)), "min": float(r[0]), "max": float(r[-1]),
     }

@@ -242,6 +242,7 @@ class ExactMilp(Backend):
         limit = self._limit(problem, low)
         self.phases = []
         res = self._solve(low, problem, limit)
+        self.among = AT_REST if problem.hold_end else ALL_PLANS  # what an optimum is over
         if problem.hold_end and not self._reaches(res, low, problem):
             free_problem = replace(problem, hold_end=False)
             free = build(free_problem, {"requirement": problem.requirement},
@@ -254,7 +255,11 @@ class ExactMilp(Backend):
             wall = res.wall_s + res2.wall_s
             if res2.x is not None and (res.x is None or -res2.objective > -res.objective):
                 low.milp, low.vehicles, low.top = free.milp, free.vehicles, free.top
-                res = res2
+                res, self.among = res2, ALL_PLANS
+            elif res2.status not in ("Optimal", "Infeasible"):  # the retry was cut short
+                self.among = (f"{AT_REST}; the re-solve without the rest end stopped "
+                              f"({res2.status}, {res2.wall_s:.1f} s): a better plan that "
+                              "does not end at rest may exist")
             res.wall_s = wall
         from stlc.backends.jerk import least_jerk
 
@@ -385,12 +390,15 @@ class ExactMilp(Backend):
             for lv in low.vehicles:
                 x[lv.x[0]] = np.asarray(low.milp.lo)[lv.x[0]]
         ch: dict[str, np.ndarray] = {}
+        solver_states: dict[str, np.ndarray] = {}
         dev = 0.0
         for lv, v in zip(low.vehicles, problem.vehicles()):
             xs, uu = lv.simulate(x)
             dev = max(dev, float(np.max(np.abs(xs - x[lv.x]))) if res.x is not None else 0.0)
             for i, c in enumerate(lv.states):
                 ch[c] = xs[:, i]
+                if res.x is not None:
+                    solver_states[c] = np.array(x[lv.x][:, i], dtype=float)
             for j, c in enumerate(lv.inputs):
                 ch[c] = np.concatenate([uu[:, j], uu[-1:, j]]) if n > 1 else uu[:1, j]
             vm = vehicles.model_of(v)
@@ -418,11 +426,19 @@ class ExactMilp(Backend):
             problem_size={"samples": n, "variables": low.milp.n_cols,
                           "constraints": len(low.milp.rows),
                           "binaries": low.milp.n_binaries},
-            feasible=not failed and dev <= 1e-5)
+            feasible=not failed and dev <= 1e-5, solver_states=solver_states)
+        sol.solver["optimal_among"] = getattr(self, "among", ALL_PLANS)
+        if status.converged and sol.solver["optimal_among"] not in (AT_REST, ALL_PLANS):
+            sol.notes.append(f"optimal among {sol.solver['optimal_among']}")
         if status == SolverStatus.MAX_TIME:
             sol.notes.append(f"the MILP stopped on its time limit (not converged): best plan "
                              f"ρ̂ = {rho:.6g}, bound {bound:.6g}")
         return sol
+
+
+#: what a MILP optimum is optimal among (``solver["optimal_among"]``)
+AT_REST = "plans that end at rest (the holdable end, a preference of the mission)"
+ALL_PLANS = "all plans on the mission's grid"
 
 
 def _gap(obj: float, bound: float) -> float | None:

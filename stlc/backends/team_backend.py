@@ -139,6 +139,12 @@ class MilpSeed(Backend):
         try:
             routes, stats = assign(scenario, budget_s=budget)
         except TeamError as e:
+            if getattr(e, "reason", "") == "horizon":  # the route model's bound, not a proof
+                from stlc.planning.fallback import NoPlanFound
+
+                raise NoPlanFound(f"{e} (by the planner's stop-and-go route model: travel "
+                                  "between stops, rounded to steps — a faster trajectory "
+                                  "may exist)", _diag(problem, e).span) from None
             raise StlcError([_diag(problem, e)]) from None
         t0 = time.perf_counter()
         plan = seed_plan(scenario, routes)

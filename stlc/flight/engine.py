@@ -148,14 +148,14 @@ def many(program, mission, times, plan, setup, runs: int, seed: int, client=None
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-def run_statistics(rho: np.ndarray, betas, delta: float) -> dict:
-    """P(violation) (ρ ≤ 0) with its one-sided Clopper–Pearson upper bound at confidence
+def run_statistics(rho: np.ndarray, betas, delta: float, kappa: float = 0.0) -> dict:
+    """P(violation) (ρ < κ, ``stlc.analysis.verdict``) with its one-sided Clopper–Pearson upper bound at confidence
     1 − δ, and VaR/CVaR of the flown robustness at each β with their DKW bounds
     (``stlc.analysis.risk_measures.summarize``: VaR is the robustness level kept with
     probability β, CVaR the mean of the worst 1 − β)."""
     from stlc.analysis.risk_measures import summarize
 
-    s = summarize(rho, betas, delta)
+    s = summarize(rho, betas, delta, kappa=kappa)
     pv = s["p_violation"]
     return {"n": int(rho.size), "violations": pv["count"], "p_violation": pv["value"],
             "p_violation_upper": pv["upper"], "delta": delta,

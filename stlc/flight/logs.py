@@ -219,10 +219,12 @@ def read_log(path: str, declared: list[str], maps: dict[str, str], dt: float,
     return Trace(grid - t0, dt, channels, path, Span(path, 1, 1, 1, 2), note)
 
 
-def monitor_available(formulas: dict, trace: Trace, params: dict) -> dict[str, dict]:
-    """Exact robustness of each formula whose signals the trace has; the others are
-    undefined (``robustness`` NaN, ``missing``: the signals the log lacks)."""
-    from stlc.analysis import monitor_demand
+def monitor_available(formulas: dict, trace: Trace, params: dict,
+                      kappas: dict[str, float]) -> dict[str, dict]:
+    """Exact robustness of each formula whose signals the trace has, judged at its κ by the
+    one verdict rule (``stlc.analysis.verdict``); the others are undefined (``robustness``
+    NaN, ``missing``: the signals the log lacks)."""
+    from stlc.analysis import monitor_demand, verdict
     from stlc.semantics import ir
 
     ok = {k: f for k, f in formulas.items() if ir.signals(f) <= set(trace.channels)}
@@ -233,8 +235,9 @@ def monitor_available(formulas: dict, trace: Trace, params: dict) -> dict[str, d
     for k, f in formulas.items():
         if k in got:
             r = float(got[k])
-            out[k] = {"robustness": r, "satisfied": bool(r > 0) if r == r else None}
+            out[k] = {"robustness": r, "satisfied": verdict.judge(r, kappas[k]),
+                      "kappa": kappas[k]}
         else:
-            out[k] = {"robustness": math.nan, "satisfied": None,
+            out[k] = {"robustness": math.nan, "satisfied": None, "kappa": kappas[k],
                       "missing": sorted(ir.signals(f) - set(trace.channels))}
     return out

@@ -27,7 +27,9 @@ Each input runs in a worker process with a time limit and is classified as *diag
 monitor, ``--json`` output must parse as strict JSON), *internal* (any other exception),
 *hang* (over the time limit; a whole command runs with ``--time-limit`` a third of it, so
 its own limit was not kept), *mem* (over the memory cap), *dataloss*, *unlocated* (a
-diagnostic at line 0 or past the end of the file) or *badjson*.  The report is a table of kind × class; failing inputs are saved.
+diagnostic at line 0 or past the end of the file), *badjson* or *wrong* (an answer
+known to be wrong: ``stlc.fuzz.numerics`` — large coordinates, boundary optima, written
+files monitored again, ``fmt`` idempotence, the language server's analysis).  The report is a table of kind × class; failing inputs are saved.
 """
 
 from __future__ import annotations
@@ -37,10 +39,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 SEED_DIRS = ("specs", "tests/missions", "tests/diagnostics")
-KINDS = ("grammar", "mutation", "deep", "trace", "example", "simulate", "team", "resource")
+KINDS = ("grammar", "mutation", "deep", "trace", "example", "simulate", "team", "resource",
+         "coords", "boundary", "roundtrip", "fmt", "lsp")  # the last five: stlc.fuzz.numerics
 CLASSES = ("diagnosed", "accepted", "internal", "hang", "mem", "dataloss", "unlocated",
-           "badjson")
-BAD = ("internal", "hang", "mem", "dataloss", "unlocated", "badjson")
+           "badjson", "wrong")
+BAD = ("internal", "hang", "mem", "dataloss", "unlocated", "badjson", "wrong")
 
 SIGNALS = ("x", "y", "z")
 ODD = ["\r", "\r\n", "\f", "\v", "\u2028", "\x85", "\x00", "\t", "\ufeff", "\u00b5", "é",
@@ -230,6 +233,10 @@ def make_input(kind: str, seed: int, seeds: list[str]) -> dict:
         from stlc.fuzz import missions
 
         return missions.make(kind, seed)
+    from stlc.fuzz import numerics
+
+    if kind in numerics.KINDS:  # inputs with a known right answer (``wrong`` otherwise)
+        return numerics.make(kind, seed, seeds)
     rng = random.Random(f"{kind}:{seed}")
     trace = None
     if kind == "grammar":

@@ -21,9 +21,11 @@ from multiprocessing.connection import wait
 from stlc import fuzz
 
 WEIGHTS = {"grammar": 0.34, "mutation": 0.29, "deep": 0.05, "trace": 0.20, "example": 0.09,
-           "simulate": 0.01, "team": 0.01, "resource": 0.01}
+           "simulate": 0.01, "team": 0.01, "resource": 0.01, "coords": 0.001,
+           "boundary": 0.001, "roundtrip": 0.001, "fmt": 0.02, "lsp": 0.02}
 #: whole commands solve: their time limit is at least this (s)
-MIN_TIMEOUT = {"simulate": 60.0, "team": 120.0, "resource": 30.0}
+MIN_TIMEOUT = {"simulate": 60.0, "team": 120.0, "resource": 30.0, "coords": 120.0,
+               "boundary": 60.0, "roundtrip": 120.0}
 #: peak resident memory of one input above this is ``mem`` (the address space is capped
 #: a few GB above it, so that a runaway allocation fails instead of swapping)
 MEM_CAP = 1 << 30
@@ -83,6 +85,10 @@ def classify(case: dict) -> tuple[str, str]:
         from stlc.fuzz.missions import run_command
 
         return run_command(case)
+    if "check" in case:
+        from stlc.fuzz.numerics import run_check
+
+        return run_check(case)
     with tempfile.TemporaryDirectory(prefix="stlc-fuzz-") as d:
         path, csv = os.path.join(d, "in.stl"), os.path.join(d, "in.csv")
         stl = case["stl"]

@@ -98,6 +98,25 @@ def recorded(outdir: str, key: str = "files") -> set[str]:
         else set()
 
 
+def foreign(outdir: str, names, key: str = "sweep") -> list[str]:
+    """Those of ``names`` (relative) that exist in ``outdir`` although no manifest lists
+    them under ``key``: a user's files with an output's name, which a run of that family
+    must not replace (``plans/7.csv`` before a sweep that would write its instance 7)."""
+    mine = recorded(outdir, key)
+    return [n for n in names
+            if n not in mine and os.path.lexists(os.path.join(outdir, n))]
+
+
+def refuse_foreign(outdir: str, names, span: Span, key: str = "sweep") -> None:
+    """STL605 when ``foreign`` finds any of ``names`` in ``outdir``."""
+    found = foreign(outdir, names, key)
+    if found:
+        more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+        raise _fail(f"`{os.path.join(outdir, found[0])}`{more} exists and was not written by "
+                    f"an earlier `stlc {key}` into `{outdir}`: stlc does not replace it",
+                    span, "move the file away, or choose another `-o DIR`")
+
+
 def _fail(message: str, span: Span, help_: str) -> StlcError:
     return StlcError([Diagnostic("STL605", message, span, help_)])
 
@@ -227,6 +246,10 @@ def publish(stage: str, outdir: str, complete: bool = True, key: str = "files") 
         manifest = os.path.join(stage, MANIFEST)
         with open(manifest, "w", encoding="utf-8") as fh:
             json.dump({"written_by": "stlc", **record, key: sorted(now)}, fh, indent=1)
+        theirs = [n for n in names if "/" in n and n not in before
+                  and os.path.lexists(os.path.join(outdir, n))]
+        if theirs:  # appeared after the preflight: a user's file is never replaced
+            raise FileExistsError(17, f"`{theirs[0]}` exists and is not stlc's")
         for name in [*names, MANIFEST]:
             src = os.path.join(stage, name)
             dst = os.path.join(outdir, name)

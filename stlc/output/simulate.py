@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import sys
 
+from stlc.analysis import verdict
 from stlc.planning.solution import Solution
 from stlc.replan.result import SimulationResult
 from stlc.semantics import model
@@ -60,7 +61,7 @@ def simulation_summary(sim: SimulationResult, outdir: str, quiet: bool = False) 
                 print(f"  = why: {why}", file=sys.stderr)
         for k in sim.kept:
             r = sim.executed_robustness.get(k)
-            if r is None or not r >= sim.threshold:
+            if r is None or not verdict.satisfied(r, sim.threshold):
                 print(f"  error[STL501]: `{k}` does not hold on the executed trajectory "
                       f"(robustness {_f(r, '+.4f')}, κ = {sim.threshold:g})", file=sys.stderr)
     return ok

@@ -78,3 +78,29 @@ def time_limited(sol: Solution) -> None:
                      "verified plan found so far (the solver did not converge)")
     if sol.status != Verdict.SATISFIED:
         sol.status = Verdict.STOPPED
+
+
+class NoPlanFound(Exception):
+    """A planner's own model found no plan — a bound of that model (e.g. the team planner's
+    stop-and-go routes), not a proof over every trajectory: the run ends with "no plan
+    found" and the reason (``not_found``), never with "no plan exists"."""
+
+    def __init__(self, reason: str, span=None):
+        super().__init__(reason)
+        self.reason, self.span = reason, span
+
+
+def not_found(problem: PlanningProblem, e: NoPlanFound) -> Solution:
+    """The plan written when a planner found none: the vehicles hovering at their start,
+    the reason in the notes and an STL503 diagnostic (judged by the exact monitor as any
+    plan; its verdict is not "infeasible")."""
+    from stlc.diagnostics import Diagnostic
+
+    sol = hover_solution(problem, "no plan found", f"{e.reason}; the plan shown is every "
+                         "vehicle hovering at its start (not a planned trajectory)")
+    sol.solver.update(name="none", return_status="no_plan_found")
+    sol.diagnostics.append(Diagnostic(
+        "STL503", f"mission `{problem.mission.name}`: no plan found: {e.reason}",
+        e.span or problem.mission.span, "lengthen the mission's `horizon` or add drones; "
+        "this is the planner's limit, not a proof that the mission is impossible"))
+    return sol

@@ -104,3 +104,6 @@ class Solution:
     conflict: list[str] = field(default_factory=list)
     #: per vehicle: can it hold the final state (``stlc.planning.holdable``)
     end_state: dict[str, dict] = field(default_factory=dict)
+    #: the solver's own state samples, before ``channels`` re-simulated them from the
+    #: inputs (``stlc.planning.boundary``: a plan on the boundary judged on its own numbers)
+    solver_states: dict[str, np.ndarray] = field(default_factory=dict)

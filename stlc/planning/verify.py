@@ -17,8 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from stlc import vehicles
-from stlc.analysis import monitor, smooth
+from stlc.analysis import monitor, smooth, verdict
 from stlc.planning.solution import Solution, SpecResult, Verdict
+from stlc.planning.boundary import reconcile
 from stlc.planning.bounds import plot_bounds, spec_windows
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics.specs import reads_payload
@@ -96,25 +97,30 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
     method = problem.smoothing.method
     ch, events = recompute_derived(problem, sol.channels)
     exact = float(monitor.robustness(problem.requirement, dt, ch, params))
+    notes = []
+    on_face = reconcile(problem, sol, exact, kappa, recompute_derived,
+                        lambda c: monitor.robustness(problem.requirement, dt, c, params))
+    if on_face is not None:  # rounding of the re-simulation, not of the plan
+        ch, events, exact = on_face.channels, on_face.events, on_face.robustness
+        notes.append(on_face.note)
     specs = {}
     for name, spec in problem.specs.items():
         r, k, pred = monitor.binding(spec.normal, dt, ch, params)
         specs[name] = SpecResult(
             robustness=float(r),
             smooth=float(smooth.smooth_robustness(spec.normal, dt, ch, params, lam, method)),
-            satisfied=bool(r >= kappa),
+            satisfied=verdict.satisfied(r, kappa),
             tightest_time=None if k is None else float(k * dt),
             binding_predicate=pred.label if pred is not None else "",
             line=spec.span.line,
             binding_line=pred.span.line if pred is not None and pred.span.known else 0,
             binding_origin=pred.origin if pred is not None else None)
     status = sol.status
-    satisfied = exact >= kappa and sol.feasible
+    satisfied = verdict.satisfied(exact, kappa) and sol.feasible
     if status == Verdict.INFEASIBLE and not satisfied:
         pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
     elif status != Verdict.SOLVER_FAILED:
         status = Verdict.SATISFIED if satisfied else Verdict.VIOLATED
-    notes = []
     if 0 <= exact < kappa:
         notes.append(f"exact robustness {exact:.6f} is below the threshold κ = "
                      f"{kappa:g}: the margin fell short")

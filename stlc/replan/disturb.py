@@ -66,7 +66,7 @@ from dataclasses import replace
 from types import MappingProxyType
 
 from stlc import vehicles
-from stlc.analysis import monitor
+from stlc.analysis import monitor, verdict
 from stlc.backends.base import Backend, SolverStatus
 from stlc.planning.kept import Clause, KeptSpecError, kept_clauses
 from stlc.planning.solution import Solution, Verdict
@@ -328,7 +328,7 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
     cand[s:g + 1] = flown
     ev.kept = _kept(problem, tr, cand, s + 1, g)
     kappa = problem.threshold
-    kept_ok = all(r >= kappa for r in ev.kept.values())
+    kept_ok = all(verdict.satisfied(r, kappa) for r in ev.kept.values())
     ev.accepted = bool(status.converged and ev.within_budget and rejoin <= REJOIN_TOL
                        and kept_ok)
     ev.detail = {"iterations": res.solver["iterations"], "cpu_s": res.solver["cpu_s"],

@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from stlc.analysis import verdict
 from stlc.replan.result import ReplanEvent, SimulationResult
 
 
@@ -106,7 +107,7 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
         ev.solve_s = info["solve_s"]
         after = float(monitor.robustness(problem.requirement, dt, new, program.params))
         ev.status = info["status"]
-        ev.accepted = after >= kappa
+        ev.accepted = verdict.satisfied(after, kappa)
         ev.within_budget = None
         ev.segment = (float(times[k_e]), float(times[-1]))
         ev.kept = {"mission": after}

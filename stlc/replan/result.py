@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stlc.analysis import verdict
 from stlc.strictjson import channels_csv, json_number, strict_dumps
 
 
@@ -78,8 +79,8 @@ class SimulationResult:
         (robustness ≥ κ)."""
         if any(e.triggered and not e.accepted for e in self.events):
             return False
-        return all(self.executed_robustness.get(k, float("nan")) >= self.threshold
-                   for k in self.kept)
+        return all(verdict.satisfied(self.executed_robustness.get(k, float("nan")),
+                                     self.threshold) for k in self.kept)
 
     @property
     def triggered(self) -> list[ReplanEvent]:
@@ -99,7 +100,7 @@ class SimulationResult:
                 "kept": list(self.kept),
                 "threshold": json_number(self.threshold),
                 "robustness": {k: json_number(v) for k, v in self.executed_robustness.items()},
-                "satisfied": {k: (None if v != v else bool(v >= self.threshold))
+                "satisfied": {k: verdict.judge(v, self.threshold)
                               for k, v in self.executed_robustness.items()},
             },
             "notes": self.notes,

@@ -58,6 +58,7 @@ import time
 
 import numpy as np
 
+from stlc.analysis import verdict
 from stlc.backends.base import SolverStatus, run_chain
 from stlc.planning.takeover import BackupPlan, Fixed
 from stlc.replan.result import ReplanEvent, SimulationResult
@@ -279,7 +280,8 @@ def simulate_failure(problem, plan, failure: model.Failure,
     if event.triggered and event.accepted is None:
         event.accepted = bool(SolverStatus(event.status).converged
                               and event.solve_s <= cfg.takeover_delay
-                              and all(v >= problem.threshold for v in event.kept.values()))
+                              and all(verdict.satisfied(v, problem.threshold)
+                                      for v in event.kept.values()))
     return SimulationResult(
         mission=problem.mission.name, times=times, nominal=dict(plan.channels),
         executed=executed, events=[event], budget=GOAL_S, executed_robustness=rob,

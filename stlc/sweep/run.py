@@ -117,7 +117,8 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``);
     ``collect``: a list that receives the finished rows (the Python API's table)."""
     from stlc.frontend.syntax import parse_file
-    from stlc.output.directory import MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup, preflight
+    from stlc.output.directory import (MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup, preflight,
+                                       refuse_foreign)
     from stlc.pipeline import select_missions
     from stlc.semantics import overrides
 
@@ -137,6 +138,9 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
         raise StlcError([Diagnostic("STL102", f"`{clash[0]}` is both varied and set (or "
                                     "varied twice)", Span(path, 1, 1, 1, 2),
                                     "give each name once")])
+    from stlc.sweep.handshake import check_count
+
+    check_count(path, [a.n for a in axes], random, axes_mod.MAX_INSTANCES)  # before allocating
     insts = axes_mod.instances(axes, random, seed)
     # validate both corners before any worker starts: unknown names, units, consts
     for corner in (insts[0], insts[-1]):
@@ -150,6 +154,11 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     outdir = out if out is not None else os.path.join("reports", f"{m.name}-sweep")
     span = m.span if m.span.known else Span(path, 1, 1, 1, 2)
     preflight(outdir, span, names=(*SWEEP_OWNED, MANIFEST), dirs=("plans",))
+    refuse_foreign(outdir, [f"plans/{i}.csv" for i in range(len(insts))], span)
+    if scheduler:
+        from stlc.sweep.handshake import check_scheduler
+
+        check_scheduler(scheduler, path)  # a Dask handshake within 5 s, or STL607
     try:
         os.makedirs(outdir, exist_ok=True)
         stage = tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=outdir)

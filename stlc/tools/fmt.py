@@ -89,12 +89,24 @@ def format_text(text: str, file: str = "<stdin>") -> str:
     text = normalize_newlines(text.removeprefix("\ufeff"))
     tree, comments = parse_with_comments(text, file)
     out = _Formatter(text, comments).file(tree.members)
-    again, kept = parse_with_comments(out, file)
-    if again.members != tree.members:
-        raise FormatError(f"{file}: formatting would change the program (a bug in stlc fmt)")
-    if _words(kept) != _words(comments):
-        raise FormatError(f"{file}: formatting would lose a comment (a bug in stlc fmt)")
+    for _ in range(ROUNDS):  # the layout of the layout: a fixed point (idempotence)
+        again, kept = parse_with_comments(out, file)
+        if again.members != tree.members:
+            raise FormatError(f"{file}: formatting would change the program (a bug in "
+                              "stlc fmt)")
+        if _words(kept) != _words(comments):
+            raise FormatError(f"{file}: formatting would lose a comment (a bug in stlc fmt)")
+        nxt = _Formatter(out, kept).file(again.members)
+        if nxt == out:
+            break
+        out = nxt
     return out
+
+
+#: a layout decision can depend on the input's line breaks (members the source joined with
+#: `;` are not aligned; one that no longer fits is split off, and is aligned next time):
+#: ``format_text`` formats its own output again until nothing changes, at most this often
+ROUNDS = 3
 
 
 def _words(cs: list[Comment]) -> list[str]:
@@ -110,6 +122,10 @@ class _Formatter:
 
     def pos(self, line: int, col: int) -> int:
         return self.p.pos(line, col)
+
+    def own_line(self, c: Comment) -> bool:
+        """The comment stands on a line of its own in the source."""
+        return not self.masked[self.text.rfind("\n", 0, c.pos) + 1:c.pos].strip()
 
     def line_of(self, pos: int) -> int:
         return self.text.count("\n", 0, pos) + 1
@@ -272,14 +288,23 @@ class _Formatter:
         lines[0] = head + lines[0]
         rows = [[ind, ln, [], None] if i == 0 else ["", ln, [], None]
                 for i, ln in enumerate(lines)]
+        own: dict[int, list[str]] = {}  # comments on lines of their own, after row i
         for c, a in zip(inner, attach):
             at = 0
             if a >= 0:
                 tag = f"\ue000{a}\ue001"
                 at = next((i for i, ln in enumerate(lines) if tag in ln), 0)
-            rows[at][2].append(c.text)
+            if a >= 0 and self.own_line(c):
+                own.setdefault(at, []).append(c.text)
+            else:
+                rows[at][2].append(c.text)
         for r in rows:
             r[1] = strip(r[1])
+        for at in sorted(own, reverse=True):  # at the indentation of the line that follows
+            nxt = rows[at + 1][1] if at + 1 < len(rows) else rows[at][0] + rows[at][1]
+            lead = (rows[at + 1][0] if at + 1 < len(rows) else "") \
+                + nxt[:len(nxt) - len(nxt.lstrip(" "))]
+            rows[at + 1:at + 1] = [[lead, "", [t], None] for t in own[at]]
         self.p.leaves = {}
         rows[0][3] = _align_key(m) if len(rows) == 1 else None
         return rows
@@ -373,48 +398,68 @@ def write_atomic(path: str, text: str) -> None:
         raise
 
 
+def _cannot_write(f: str, why: str) -> StlcError:
+    from stlc.diagnostics import Diagnostic, Span
+
+    return StlcError([Diagnostic(
+        "STL605", f"cannot reformat `{f}`: {why}", Span(f, 1, 1, 1, 2),
+        "stlc fmt writes the new text beside the file and renames it over the old one "
+        "(atomic): make the folder writable, or run `stlc fmt - < FILE > NEW` "
+        "(or `stlc fmt --check FILE` to only check)")])
+
+
 def run(files: list[str], check: bool = False) -> int:
     """``stlc fmt FILE... [--check]`` / ``stlc fmt -``: exit 0, or 1 when a file has errors
-    (it is left untouched) or, with ``--check``, would change."""
+    (it is left untouched) or, with ``--check``, would change.  Each input is read once
+    (size-limited), so a pipe, a process substitution or a FIFO is judged on what it
+    sent; only a regular file is rewritten."""
     from stlc.diagnostics import render_all
-    from stlc.frontend.syntax import decode, parse_file
+    from stlc.frontend.syntax import decode
+    from stlc.limits import MAX_SOURCE_BYTES, read_limited
 
-    code, errors = 0, []
+    code = 0
     for f in files:
+        src = None
         try:
             if f == "-":
-                src = decode(sys.stdin.buffer.read(), "<stdin>")
+                data = sys.stdin.buffer.read(MAX_SOURCE_BYTES + 1)
+                if len(data) > MAX_SOURCE_BYTES:
+                    from stlc.diagnostics import Diagnostic, Span
+                    from stlc.limits import human
+
+                    raise StlcError([Diagnostic(
+                        "STL601", f"standard input is larger than the limit of "
+                        f"{human(MAX_SOURCE_BYTES)}", Span("<stdin>", 1, 1, 1, 1),
+                        "is this the .stl file you meant?")])
+                src = decode(data, "<stdin>")
                 out = format_text(src, "<stdin>")
                 if check:
                     code |= out != normalize_newlines(src)
                 else:
                     sys.stdout.write(out)
                 continue
-            parse_file(f)  # readable, UTF-8, parses (else its diagnostics)
-            with open(f, "rb") as fh:
-                src = decode(fh.read(), f)
-            out = format_text(src, f)
+            data = read_limited(f, MAX_SOURCE_BYTES, "file",
+                                "check the path; it must be a readable .stl file")
+            src = decode(data, f)
+            out = format_text(src, f)  # parses (else its diagnostics)
             if "\r\n" in src:  # a Windows file keeps its line ends
                 out = out.replace("\n", "\r\n")
+            if out == src:
+                continue
+            if check:
+                print(f"would reformat {f}")
+                code = 1
+                continue
+            if not os.path.isfile(f):
+                raise _cannot_write(f, "it is not a regular file (a pipe or a device)")
+            try:
+                write_atomic(f, out)
+            except OSError as e:
+                raise _cannot_write(f, e.strerror or str(e)) from None
+            print(f"reformatted {f}", file=sys.stderr)
         except StlcError as e:
-            errors.append(e)
-            sources = {}
-            if f != "-":
-                try:
-                    with open(f, encoding="utf-8", errors="replace") as fh:
-                        sources[f] = fh.read()
-                except OSError:
-                    pass
+            sources = {f: src} if src is not None else {}
             print(render_all(e.diagnostics, sources), file=sys.stderr)
             code = 1
-            continue
-        if out == src:
-            continue
-        if check:
-            print(f"would reformat {f}")
-            code = 1
-        else:
-            write_atomic(f, out)
-            print(f"reformatted {f}", file=sys.stderr)
     return code
 

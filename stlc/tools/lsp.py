@@ -8,6 +8,11 @@ from a ``solution.json`` beside the file, a vehicle field's unit); go to definit
 (declared names, keywords, functions; after ``operator.`` the human's regions and fields,
 after ``uav1.`` the vehicle's fields); document symbols; formatting (= ``stlc fmt``).
 
+Only documents the editor opened are read (their text comes with ``didOpen``/``didChange``);
+a request about any other URI (``file:///dev/zero``) answers nothing and reads nothing.  A
+document larger than ``MAX_DOCUMENT_CHARS`` is not analysed on the request path: it gets
+one STL601 diagnostic (use ``stlc check`` on it), so the server keeps answering.
+
 Editors start it as ``stlc lsp`` (see ``editors/vscode``).  Positions are converted with
 the document's position codec (UTF-16 by default); the analysis works in code points.
 """
@@ -36,6 +41,10 @@ _COMPLETION = {"keyword": T.CompletionItemKind.Keyword, "function": T.Completion
                "vehicle": T.CompletionItemKind.Class, "human": T.CompletionItemKind.Class}
 
 
+#: the largest document analysed (characters): 1 Mi, 50× the largest shipped spec
+MAX_DOCUMENT_CHARS = 1 << 20
+
+
 class StlcServer(LanguageServer):
     def __init__(self) -> None:
         super().__init__("stlc", __version__,
@@ -44,8 +53,24 @@ class StlcServer(LanguageServer):
         self.parsed: dict[str, ide.Analysis] = {}  # uri → latest analysis that parsed
         self.checked: dict[str, ide.Analysis] = {}  # uri → latest analysis that checked
 
+    def opened(self, uri: str):
+        """The document if the editor opened it, else None (never read from disk)."""
+        return self.workspace.text_documents.get(uri)
+
     def refresh(self, uri: str) -> None:
-        doc = self.workspace.get_text_document(uri)
+        doc = self.opened(uri)
+        if doc is None:
+            return
+        if len(doc.source) > MAX_DOCUMENT_CHARS:
+            self.forget(uri)
+            self.text_document_publish_diagnostics(T.PublishDiagnosticsParams(
+                uri=uri, version=doc.version, diagnostics=[T.Diagnostic(
+                    range=T.Range(T.Position(0, 0), T.Position(0, 0)), code="STL601",
+                    severity=T.DiagnosticSeverity.Error, source="stlc",
+                    message=f"the document has {len(doc.source):,} characters, more than the "
+                    f"language server analyses ({MAX_DOCUMENT_CHARS:,})\nhelp: run "
+                    "`stlc check FILE` on it")]))
+            return
         an = ide.analyze(doc.source, doc.path or uri)
         self.analyses[uri] = an
         if an.tree is not None and not any(d.code in ("STL001", "STL002", "STL003")
@@ -56,6 +81,11 @@ class StlcServer(LanguageServer):
         diags = [_diagnostic(doc, d) for d in an.diagnostics]
         self.text_document_publish_diagnostics(
             T.PublishDiagnosticsParams(uri=uri, diagnostics=diags, version=doc.version))
+
+    def forget(self, uri: str) -> None:
+        self.analyses.pop(uri, None)
+        self.parsed.pop(uri, None)
+        self.checked.pop(uri, None)
 
     def known(self, uri: str) -> ide.Analysis | None:
         """The latest analysis, or the latest that parsed when this one did not; when it
@@ -91,7 +121,7 @@ def _diagnostic(doc, d) -> T.Diagnostic:
 
 
 def _pos(ls: StlcServer, uri: str, p: T.Position) -> tuple[object, int, int]:
-    doc = ls.workspace.get_text_document(uri)
+    doc = ls.opened(uri)  # callers ask only about analysed (so opened) documents
     try:
         p = doc.position_from_client_units(p)
     except (IndexError, ValueError):
@@ -124,9 +154,7 @@ def make_server() -> StlcServer:
     @server.feature(T.TEXT_DOCUMENT_DID_CLOSE)
     def did_close(ls: StlcServer, params: T.DidCloseTextDocumentParams):
         uri = params.text_document.uri
-        ls.analyses.pop(uri, None)
-        ls.parsed.pop(uri, None)
-        ls.checked.pop(uri, None)
+        ls.forget(uri)
         ls.text_document_publish_diagnostics(T.PublishDiagnosticsParams(uri=uri,
                                                                         diagnostics=[]))
 
@@ -169,15 +197,17 @@ def make_server() -> StlcServer:
     @server.feature(T.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
     def document_symbol(ls: StlcServer, params: T.DocumentSymbolParams):
         an = ls.known(params.text_document.uri)
-        doc = ls.workspace.get_text_document(params.text_document.uri)
-        return [_symbol(doc, s) for s in an.symbols] if an is not None else []
+        doc = ls.opened(params.text_document.uri)
+        return [_symbol(doc, s) for s in an.symbols] if an is not None and doc else []
 
     @server.feature(T.TEXT_DOCUMENT_FORMATTING)
     def formatting(ls: StlcServer, params: T.DocumentFormattingParams):
         from stlc.diagnostics import StlcError
         from stlc.tools.fmt import FormatError, format_text
 
-        doc = ls.workspace.get_text_document(params.text_document.uri)
+        doc = ls.opened(params.text_document.uri)
+        if doc is None or len(doc.source) > MAX_DOCUMENT_CHARS:
+            return None  # only what the editor opened, and not too large
         try:
             out = format_text(doc.source, doc.path or params.text_document.uri)
         except (StlcError, FormatError, RecursionError):

@@ -57,7 +57,7 @@ class Scope:
         views: list[Iterable[str]] = []
         s: Scope | None = self
         while s is not None:
-            views.append(s.names.keys())
+            views.append(s.names)  # the dict itself: the same object while the scope grows
             s = s.parent
         return Names((*views, *extra))
 
