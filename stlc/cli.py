@@ -343,6 +343,7 @@ def cmd_monitor(args) -> int:
     from stlc.diagnostics import emit_warnings
     from stlc.pipeline import load, monitor_trace, monitored_formulas
     from stlc.semantics.specs import mission_named
+    from stlc.strictjson import strict_dumps
 
     loaded = load(args.file, args.sets)
     program = loaded.program
@@ -363,8 +364,6 @@ def cmd_monitor(args) -> int:
               f"(linear interpolation); the largest gap in the log is {r['largest_gap']:g} s "
               f"after t = {r['gap_at']:g} s", file=sys.stderr)
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
-        from stlc.strictjson import strict_dumps
-
         print(strict_dumps({"specs": res, **({"resampled": trace.resampled}
                                              if trace.resampled is not None else {})}))
     else:
@@ -436,9 +435,9 @@ def cmd_bench(args) -> int:
 
 
 def cmd_fmt(args) -> int:
-    from stlc.tools import fmt
+    from stlc.tools import fmt_command
 
-    return fmt.run(args.files, check=args.check)
+    return fmt_command.run(args.files, check=args.check)
 
 
 def cmd_explain(args) -> int:
