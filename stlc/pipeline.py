@@ -100,8 +100,8 @@ def monitor_trace(program: model.Program, trace) -> dict[str, dict]:
 
 def backend_chain(problem, quiet: bool = True, backend: str | None = None) -> list:
     """The backends that plan ``problem``, in order (seed first), chosen from the registry
-    by capabilities (``stlc.backends.select``) or forced by ``backend``."""
-    from stlc.backends.select import select
+    by capabilities (``stlc.backends.strategy``) or forced by ``backend``."""
+    from stlc.backends.strategy import select
 
     return select(problem, backend, quiet).backends
 
@@ -124,7 +124,7 @@ def _team_comparisons(sols: list) -> None:
 def _check_budget(problem, backends) -> None:
     """Before building: refuse (STL606) a trajectory NLP that cannot fit the memory
     budget (a chain with the CasADi NLP; the team chain plans on waypoints)."""
-    from stlc.backends.casadi_backend import CasadiNlp
+    from stlc.backends.nlp.backend import CasadiNlp
     from stlc.planning.budget import check_nlp
 
     if any(isinstance(b, CasadiNlp) for b in backends):
@@ -147,7 +147,7 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
 
 def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
     from stlc.analysis.vacuity import plan_warnings
-    from stlc.backends.select import Chain, select
+    from stlc.backends.strategy import Chain, select
     from stlc.planning.fallback import time_limited
     from stlc.planning.problem import from_mission
 
@@ -164,7 +164,7 @@ def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
     if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
-        from stlc.backends.milp_conflict import explain_infeasible
+        from stlc.backends.milp.conflict import explain_infeasible
 
         explain_infeasible(problem, sol, quiet=quiet)
     time_limited(sol)
@@ -176,7 +176,7 @@ def _run_verified(problem, chain):
     """Run ``chain`` on ``problem`` and judge its plan with the exact monitor; a watchdog cut
     (the run's time limit) gives the hover plan, judged the same way."""
     from stlc.backends.base import run_chain
-    from stlc.backends.select import chain_record
+    from stlc.backends.strategy import chain_record
     from stlc.planning.fallback import fallback
     from stlc.planning.verify import verify
 
@@ -205,8 +205,8 @@ def _next_choices(problem, chain, sol, quiet: bool):
     within the time limit; the verified plan with the larger exact robustness is kept, and
     the record lists every try.  Any seed backend with ``next_seed`` (and its
     ``NEXT_LABEL``) takes part: a sweep's plan library gives this instance's own seed."""
-    from stlc.backends.casadi_backend import KinematicGuess
-    from stlc.backends.select import Chain
+    from stlc.backends.nlp.backend import KinematicGuess
+    from stlc.backends.strategy import Chain
 
     seed = chain.backends[0] if chain.backends else None
     if sol.status in ("satisfied", "infeasible") or not hasattr(seed, "next_seed"):
@@ -265,7 +265,7 @@ def _fallback(problem, first, quiet: bool):
     """Plan ``problem`` with the ``nlp`` chain after an unconverged exact chain; keep the
     verified plan with the larger exact robustness (ties: the exact chain's).  Both plans
     are judged by the exact monitor; the record says what ran."""
-    from stlc.backends.select import select
+    from stlc.backends.strategy import select
 
     chain = select(problem, "nlp", quiet)
     if not quiet:
@@ -335,7 +335,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     """``stlc compile``: every selected mission planned, verified, assessed, written.
     ``time_limit`` (s, from the start of the command; shared by the missions in turn)
     stops the search and writes the best verified plan (``stlc.deadline``); ``backend``
-    forces a chain (``stlc.backends.select``)."""
+    forces a chain (``stlc.backends.strategy``)."""
     from stlc.output import compile as outputs
 
     t0 = time.perf_counter()

@@ -149,18 +149,18 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     with deadline.bounded():
         try:
             if moves:
-                from stlc.backends.move_replan import replan_rest
+                from stlc.backends.replan.move import replan_rest
                 from stlc.replan.move import moved_program, simulate_move
 
                 sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
                 program = moved_program(program, moves[0])
             elif fails:
-                from stlc.backends.backup import TakeoverBackend
+                from stlc.backends.replan.takeover import TakeoverBackend
                 from stlc.replan.takeover import simulate_failure
 
                 sim = simulate_failure(problem, sol, fails[0], cfg, planner=TakeoverBackend())
             else:
-                from stlc.backends.segment import SegmentBackend
+                from stlc.backends.replan.segment import SegmentBackend
                 from stlc.replan.disturb import simulate_disturbances
 
                 sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)

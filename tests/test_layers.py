@@ -11,6 +11,7 @@ The units, lowest first (``LAYERS``)::
     vehicles   declared data, dynamics, geometry and behaviour of each vehicle model
     semantics  checker → checked Program, IR, NNF, time grid, named specs
     analysis   semantics of given signals: exact monitor, smooth reference, risk, traces
+    solvers    one adapter per solver library (HiGHS, IPOPT): options, status map, result
     team       team algorithms (assignment MILP, primitives, refinement)
     planning   the contract: PlanningProblem in, Solution out; verification
     backends   planners behind the Backend interface
@@ -43,6 +44,7 @@ LAYERS: list[set[str]] = [
     {"vehicles"},
     {"semantics"},
     {"analysis"},
+    {"solvers"},
     {"team"},
     {"planning"},
     {"backends"},
@@ -131,8 +133,8 @@ def test_replanning_uses_the_backends_only_through_their_interface():
 
 #: the takeover path below the pipeline: replanning, the backup planner, the contract of its
 #: plan, and the re-instantiation of a mission for the executed team
-AFTER_CHECK = ("stlc.replan", "stlc.backends.backup", "stlc.backends.segment",
-               "stlc.backends.move_replan", "stlc.planning.takeover", "stlc.semantics.teamform",
+AFTER_CHECK = ("stlc.replan", "stlc.backends.replan.takeover", "stlc.backends.replan.segment",
+               "stlc.backends.replan.move", "stlc.planning.takeover", "stlc.semantics.teamform",
                "stlc.semantics.instance")
 #: what turns source text into a checked program (and re-checks it: ``overrides.checked``)
 BEFORE_CHECK = ("stlc.frontend", "stlc.semantics.check", "stlc.semantics.overrides",

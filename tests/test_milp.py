@@ -22,8 +22,8 @@ from hypothesis import strategies as st
 
 from stlc.analysis import monitor
 from stlc.backends.base import run_chain
-from stlc.backends.milp_backend import ExactMilp
-from stlc.backends.select import select
+from stlc.backends.milp.backend import ExactMilp
+from stlc.backends.strategy import select
 from stlc.diagnostics import StlcError
 from stlc.pipeline import load
 from stlc.planning.problem import from_mission
@@ -313,7 +313,7 @@ def test_a_mission_only_a_moving_end_satisfies_is_planned_not_called_impossible(
     # that may end moving covers 6 m (1 m/s² to 2 m/s by 2 s, then 2 m/s: 2 + 4 m) —
     # ρ = 1.  The holdable end is the planner's preference, not the verdict's: the exact
     # MILP plans without it and the proof does not call the mission impossible
-    from stlc.backends.milp_conflict import prove_infeasible
+    from stlc.backends.milp.conflict import prove_infeasible
 
     p = tmp_path / "dash.stl"
     p.write_text(DASH, encoding="utf-8")

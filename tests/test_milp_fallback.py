@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from stlc import pipeline
-from stlc.backends import milp_backend
-from stlc.backends.milp_model import Result
+from stlc.backends.milp import backend as milp_backend
+from stlc.backends.milp.model import Result
 
 MISSION = Path(__file__).parent.parent / "specs" / "benchmarks" / "reach_avoid.stl"
 

@@ -114,7 +114,7 @@ def test_first_plan_preempts_a_slow_cold_instance(tmp_path, monkeypatch):
 def test_map_threads_follow_the_environment(monkeypatch):
     import os
 
-    from stlc.backends.derivatives import MAX_THREADS, map_threads
+    from stlc.backends.nlp.derivatives import MAX_THREADS, map_threads
 
     monkeypatch.delenv("STLC_MAP_THREADS", raising=False)
     assert map_threads() == max(1, min(os.cpu_count() or 1, MAX_THREADS))

@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stlc.backends import choices, smooth_windows
-from stlc.backends.casadi_expr import LoweringError
+from stlc.backends.nlp import choices
+from stlc.backends.nlp import windows as smooth_windows
+from stlc.backends.nlp.expr import LoweringError
 from stlc.semantics import ir
 from stlc.semantics.check.context import misaligned_intervals
 from stlc.semantics.timegrid import TimeGrid

@@ -109,7 +109,7 @@ class Backend:
 
     def start(self, lowered: Any, problem: PlanningProblem) -> Callable[[], Any]:
         """Begin ``solve``; the returned function waits for its result.  By default the solve
-        runs now; a backend that can solve apart (``stlc.backends.apart``) overrides this."""
+        runs now; a backend that can solve apart (``stlc.backends.nlp.apart``) overrides this."""
         raw = self.solve(lowered, problem)
         return lambda: raw
 

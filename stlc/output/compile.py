@@ -43,7 +43,7 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
         if sol.routes:
-            from stlc.backends.team_backend import solution_plan
+            from stlc.backends.team.backend import solution_plan
             from stlc.team.refine import per_drone_csv
 
             for drone, text in per_drone_csv(solution_plan(sol)).items():

@@ -20,7 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from stlc.backends.library import LibrarySeed, PlanLibrary
+from stlc.backends.nlp.library import LibrarySeed, PlanLibrary
 
 _LIBRARIES: dict[tuple[str, str], PlanLibrary] = {}
 
@@ -50,7 +50,7 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     instance — its solve stops as on its time limit and the row says ``preempted`` (the
     client solves the instance again, warm started: ``stlc.sweep.run``)."""
     from stlc import deadline
-    from stlc.backends import nlp_cache
+    from stlc.backends.nlp import cache as nlp_cache
 
     os.environ.setdefault("STLC_NO_FORK", "1")  # no fork inside a Dask worker process
     t0 = time.perf_counter()
@@ -143,8 +143,8 @@ _PARSED: dict = {}
 
 def _plan(source: str, path: str, mission: str, items, values, warm: bool,
           seeds: list | None = None) -> dict:
-    from stlc.backends.casadi_backend import CasadiNlp
-    from stlc.backends.nlp_cache import structure_key
+    from stlc.backends.nlp.backend import CasadiNlp
+    from stlc.backends.nlp.cache import structure_key
     from stlc.output.solution import trajectory_csv
     from stlc.pipeline import backend_chain, plan, select_missions, solve_cost
     from stlc.planning.problem import from_mission

@@ -43,7 +43,7 @@ import scipy.sparse as sp
 
 from stlc.team import TeamScenario
 from stlc.team.arcs import Arc
-from stlc.team.highs import MAX_TIME_S, Result, _quiet_banner, solve_mip
+from stlc.solvers.highs import MAX_TIME_S, Result, _quiet_banner, solve_mip
 from stlc.team.pricing import EXACT_LABELS, DroneTrips, Labels, chain, labels
 from stlc.team.trips import Trips, best_order
 

@@ -45,7 +45,7 @@ The default is ``w = 0``: the horizon is already a hard per-drone constraint, an
 term weakens the LP bound so much that even the 2×7 mission did not solve in 5 minutes.
 With ``w = 0`` a drone whose help does not pay for its travel goes straight home.
 
-Solver and budget.  Every round is solved by HiGHS through ``stlc.team.highs`` (highspy).
+Solver and budget.  Every round is solved by HiGHS through ``stlc.solvers.highs`` (highspy).
 The loop has a wall-time budget (``BUDGET_S``); when it is still running after
 ``WARM_AFTER_S`` the heuristic of ``stlc.team.local`` (greedy start, local search, own
 station per drone) is computed and handed to HiGHS as the starting incumbent of every
@@ -70,7 +70,7 @@ import scipy.sparse as sp
 from stlc.team import AssignmentError, TeamScenario
 from stlc.team.arcs import Arc
 from stlc.team.cuts import cuts_for, segments, station_shared
-from stlc.team.highs import Result, solve_binary
+from stlc.solvers.highs import Result, solve_binary
 
 #: options passed to HiGHS; presolve off: on these small models it costs more than it saves
 #: (4×11 mission: 2.3 s instead of 3.5 s CPU over the lazy rounds)

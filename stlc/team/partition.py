@@ -36,7 +36,7 @@ import scipy.sparse as sp
 
 from stlc.team import TeamScenario
 from stlc.team.arcs import Arc
-from stlc.team.highs import Result, solve_mip
+from stlc.solvers.highs import Result, solve_mip
 from stlc.team.trips import Trips, best_order, enumerate_trips
 
 

@@ -20,10 +20,10 @@ import casadi as ca
 import numpy as np
 
 from stlc import deadline, interrupt, vehicles
-from stlc.backends import choices
-from stlc.backends.casadi_nlp import MUMPS
-from stlc.backends.derivatives import derivative_options
-from stlc.backends.smooth_casadi import lower_robustness
+from stlc.backends.nlp import choices
+from stlc.backends.nlp.model import MUMPS
+from stlc.backends.nlp.derivatives import derivative_options
+from stlc.backends.nlp.smooth import lower_robustness
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid

@@ -6,7 +6,7 @@ through ``highspy`` directly rather than through cvxpy because the exact backend
 cvxpy's HiGHS interface does not expose: the incumbent *and* the dual bound when the user's
 time limit stops branch and bound (a plan reported ``not converged`` with its gap), a MIP
 start (``setSolution``), and changing a few row bounds of a built model and solving again
-(the deletion filter of ``stlc.backends.milp_conflict`` re-solves one model many times).
+(the deletion filter of ``stlc.backends.milp.conflict`` re-solves one model many times).
 
 ``LinearVehicle`` puts a linear vehicle on the grid: state columns x_k (k = 0 … n−1), input
 columns u_k (k = 0 … n−2, the zero-order hold of the NLP: for the double integrator the

@@ -22,7 +22,7 @@ import os
 from collections import OrderedDict
 from dataclasses import replace
 
-from stlc.backends import choices
+from stlc.backends.nlp import choices
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import model
 
@@ -39,8 +39,8 @@ def _blank_start(v: model.Vehicle) -> model.Vehicle:
 
 def structure_key(problem: PlanningProblem) -> str:
     """What the built NLP depends on, except the values ``bind`` sets."""
-    from stlc.backends import casadi_nlp
-    from stlc.backends.casadi_expr import planner_form
+    from stlc.backends.nlp import model as casadi_nlp
+    from stlc.backends.nlp.expr import planner_form
 
     program, grid = problem.program, problem.grid
     planned = planner_form(problem.requirement, problem.threshold, program.params)
@@ -72,7 +72,7 @@ def bind(prob, inv, problem: PlanningProblem) -> None:
 
 def lowered(problem: PlanningProblem, quiet: bool = True) -> tuple[object, object, bool]:
     """(NlpProblem, InverseData, built now?) for this instance, its values bound."""
-    from stlc.backends import casadi_nlp
+    from stlc.backends.nlp import model as casadi_nlp
 
     key = structure_key(problem)
     hit = _CACHE.get(key)

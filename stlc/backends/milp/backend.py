@@ -23,12 +23,12 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.backends.base import ALL_NODES, Backend, Capabilities, SolverStatus, unsupported
-from stlc.backends.milp_encode import Encoder, NotLinear, Term, affine
-from stlc.backends.milp_model import INF, Highs, LinearVehicle, Milp, linear_vehicle
+from stlc.backends.milp.encode import Encoder, NotLinear, Term, affine
+from stlc.backends.milp.model import INF, Highs, LinearVehicle, Milp, linear_vehicle
 from stlc.diagnostics import Diagnostic
 from stlc.planning.solution import Solution, Verdict
 from stlc import deadline
-from stlc.backends.flyable import HOLD_TOL
+from stlc.backends.nlp.flyable import HOLD_TOL
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 

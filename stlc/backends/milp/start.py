@@ -35,9 +35,9 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.backends.base import Backend, SolverStatus
-from stlc.backends.casadi_backend import _pad
-from stlc.backends.milp_backend import HIGHS_STATUS_MAP, ExactMilp
-from stlc.backends.milp_seed import MAX_SAMPLES, plan, seed_factor
+from stlc.backends.nlp.backend import _pad
+from stlc.backends.milp.backend import HIGHS_STATUS_MAP, ExactMilp
+from stlc.backends.milp.seed import MAX_SAMPLES, plan, seed_factor
 from stlc.planning.problem import PlanningProblem
 from stlc.planning.solution import Solution, Verdict
 
@@ -70,7 +70,7 @@ class CoarseStart(Backend):
 
     def start(self, lowered, problem: PlanningProblem):
         """The coarse MILP runs in a forked child while the exact backend builds."""
-        from stlc.backends import apart
+        from stlc.backends.nlp import apart
 
         wait = apart.start(self.solve, lowered, problem)
 

@@ -53,7 +53,7 @@ def _box(p: ir.Pred, params: dict) -> ir.Formula:
 def _norm_bound(e: ir.Expr, params: dict, p: ir.Pred):
     """(c, [a_1 … a_k]) when ``e`` is ``c − sqrt(a_1² + … + a_k²)`` with a constant c and
     affine a_i; else None."""
-    from stlc.backends.milp_encode import NotLinear, affine
+    from stlc.backends.milp.encode import NotLinear, affine
 
     if not (isinstance(e, ir.Bin) and e.op == "-" and isinstance(e.right, ir.Call)
             and e.right.fn == "sqrt" and len(e.right.args) == 1):

@@ -39,9 +39,9 @@ import time
 import numpy as np
 
 from stlc import deadline, interrupt, vehicles
-from stlc.backends import choices
+from stlc.backends.nlp import choices
 from stlc.backends.base import SolverStatus
-from stlc.backends.casadi_nlp import (
+from stlc.backends.nlp.model import (
     FEASIBLE_DEFECT,
     PLAN_MARGIN,
     STATUS_MAP,
@@ -55,7 +55,7 @@ from stlc.backends.casadi_nlp import (
     lowering_channels,
     trajectory_channels,
 )
-from stlc.backends.kinematic import kinematic_guess, path_channels  # noqa: F401 (re-exported)
+from stlc.backends.nlp.kinematic import kinematic_guess, path_channels  # noqa: F401 (re-exported)
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import model, reads
 
@@ -206,7 +206,7 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         ahead = None  # the robustness-only compare plans, solved apart from the guess
         if not warm and COMPARE_APART and any(
                 v is not None and _only_rho(v) for _, v in problem.comparisons):
-            from stlc.backends import apart
+            from stlc.backends.nlp import apart
 
             ahead = apart.start(_guess_compares, prob, inv, problem, w0)
         try:

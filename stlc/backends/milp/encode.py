@@ -34,7 +34,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from stlc.backends.milp_model import INF, Milp
+from stlc.backends.milp.model import INF, Milp
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 

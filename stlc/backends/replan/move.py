@@ -41,9 +41,10 @@ def replan_rest(problem, flown: dict[str, np.ndarray], k_e: int, library: str | 
                 pose: dict[str, float]) -> tuple[dict, dict]:
     """(channels of the new plan, info: solve_s, status, iterations, built, warm_start) of
     ``problem`` (the mission at the moved pose) with samples 0..k_e fixed to ``flown``."""
-    from stlc.backends import nlp_cache, schedule
-    from stlc.backends.casadi_backend import channels_with_derived
-    from stlc.backends.library import PlanLibrary, warm_start
+    from stlc.backends.nlp import cache as nlp_cache
+    from stlc.backends.nlp import schedule
+    from stlc.backends.nlp.backend import channels_with_derived
+    from stlc.backends.nlp.library import PlanLibrary, warm_start
 
     program, lam = problem.program, problem.smoothing.lam
     prob, inv, built = nlp_cache.lowered(problem)

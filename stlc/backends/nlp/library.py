@@ -110,7 +110,7 @@ def warm_start(prob, inv, channels: dict[str, np.ndarray], params: dict[str, flo
                lam: float) -> np.ndarray:
     """Decision vector from a plan's channels (states, inputs on the n − 1 intervals), the
     lifted variables recomputed for ``params``."""
-    from stlc.backends.casadi_nlp import fill_aux
+    from stlc.backends.nlp.model import fill_aux
 
     n = inv.grid.n
     w = np.zeros(prob.n_vars)

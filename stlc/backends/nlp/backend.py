@@ -24,7 +24,7 @@ import numpy as np
 from stlc import vehicles
 from stlc.analysis import smooth
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
-from stlc.backends.casadi_nlp import STATUS_MAP
+from stlc.backends.nlp.model import STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.planning.solution import Comparison, Solution, Verdict
 from stlc.planning.problem import PlanningProblem
@@ -50,7 +50,7 @@ class KinematicGuess(Backend):
         return None, None
 
     def solve(self, lowered, problem: PlanningProblem):
-        from stlc.backends import schedule
+        from stlc.backends.nlp import schedule
 
         t0 = time.perf_counter()
         kin = schedule.kinematic_guess(problem)
@@ -58,7 +58,7 @@ class KinematicGuess(Backend):
 
     def start(self, lowered, problem: PlanningProblem):
         """The guess is computed in a forked child while the chain lowers the full NLP."""
-        from stlc.backends import apart
+        from stlc.backends.nlp import apart
 
         wait = apart.start(self.solve, lowered, problem)
 
@@ -118,9 +118,9 @@ class CasadiNlp(Backend):
         self.quiet = quiet
 
     def lower(self, problem: PlanningProblem):
-        from stlc.backends.smooth_casadi import LoweringError
+        from stlc.backends.nlp.smooth import LoweringError
 
-        from stlc.backends import nlp_cache
+        from stlc.backends.nlp import cache as nlp_cache
 
         grid = problem.grid
         try:  # one build per structure: the instance's values are bound (nlp_cache)
@@ -135,11 +135,11 @@ class CasadiNlp(Backend):
         return _Lowered(prob, inv, prob.build_s if built else 0.0), inv
 
     def solve(self, lowered: _Lowered, problem: PlanningProblem):
-        from stlc.backends import schedule
+        from stlc.backends.nlp import schedule
 
         if problem.seed is None:
             raise ValueError("the CasADi NLP needs a seed (run KinematicGuess first)")
-        from stlc.backends import library
+        from stlc.backends.nlp import library
 
         t0 = time.perf_counter()
         if library.is_library_seed(problem.seed):  # warm start from a solved instance
@@ -157,7 +157,7 @@ class CasadiNlp(Backend):
         return raw, lowered.prob, guess_s, lowered.build_s
 
     def invert(self, raw_all, inv, problem: PlanningProblem) -> Solution:
-        from stlc.backends import casadi_nlp
+        from stlc.backends.nlp import model as casadi_nlp
 
         raw, prob, guess_s, build_s = raw_all
         sm = problem.smoothing
@@ -209,7 +209,7 @@ class CasadiNlp(Backend):
 
 def channels_with_derived(inv, w: np.ndarray) -> dict[str, np.ndarray]:
     """Named channels of a decision vector, with the vehicles' derived signals recomputed."""
-    from stlc.backends.casadi_nlp import trajectory_channels
+    from stlc.backends.nlp.model import trajectory_channels
 
     ch = trajectory_channels(w, inv)
     for L in inv.layouts:

@@ -56,13 +56,13 @@ import numpy as np
 
 from stlc import deadline, vehicles
 from stlc.backends.base import SolverStatus
-from stlc.backends.casadi_backend import KinematicGuess
-from stlc.backends.kinematic import build_in_thread
-from stlc.backends.milp_backend import HIGHS_STATUS_MAP
-from stlc.backends.milp_encode import NotLinear
-from stlc.backends.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa: F401
-from stlc.backends.seed_grid import refine as _refine
-from stlc.backends.seed_inner import inner_norms
+from stlc.backends.nlp.backend import KinematicGuess
+from stlc.backends.nlp.kinematic import build_in_thread
+from stlc.backends.milp.backend import HIGHS_STATUS_MAP
+from stlc.backends.milp.encode import NotLinear
+from stlc.backends.milp.seed_grid import MAX_SAMPLES, MAX_STEP_S, seed_factor  # noqa: F401
+from stlc.backends.milp.seed_grid import refine as _refine
+from stlc.backends.milp.seed_inner import inner_norms
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 
@@ -79,7 +79,7 @@ def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
     other predicate is ``true``); with ``clearance`` > 0 every face of a region the formula
     keeps the vehicle *out of* (a negated box face: ``not in``, the left side of
     ``implies``) is pushed out by that much (``e ≥ 0`` becomes ``e − clearance ≥ 0``)."""
-    from stlc.backends.milp_conflict import _drop_nonlinear, _kept_channels
+    from stlc.backends.milp.conflict import _drop_nonlinear, _kept_channels
 
     keep = _kept_channels(problem)  # positions, velocities and fixed channels
     inner = inner_norms(problem.requirement, problem.params)  # speed limits: inner boxes
@@ -164,7 +164,7 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
     class, or None when it finds none; its phases) — ``MilpPathSeed`` runs it beside the
     kinematic smoothing.  ``on_solve()`` is called once the MILP is built, just before HiGHS
     runs (not for a mission the MILP cannot encode)."""
-    from stlc.backends.milp_backend import build, invariant_box
+    from stlc.backends.milp.backend import build, invariant_box
 
     t0 = time.perf_counter()
     f = seed_formula(problem)
@@ -265,7 +265,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     When HiGHS proves that no path reaches κ, that result is returned at once (the caller
     asks the sound relaxation for a proof); when none was found in time, the whole MILP
     maximises ρ̂ − penalty in the time left and its incumbent, if any, is the seed."""
-    from stlc.backends.milp_model import Highs
+    from stlc.backends.milp.model import Highs
 
     t0 = time.perf_counter()
     left = lambda: max(limit - (time.perf_counter() - t0), 0.05)  # noqa: E731
@@ -317,7 +317,7 @@ def _free(milp, top: int, cost: dict[int, float], kappa: float, res, limit: floa
     ρ̂ − penalty (a small MILP closes in far less than ``FREE_S``; a handover's does not,
     and keeps its), polished with its choices fixed: (the better result, or ``res`` itself
     when there is none, and the phases)."""
-    from stlc.backends.milp_model import Highs
+    from stlc.backends.milp.model import Highs
 
     t0 = time.perf_counter()
     kappa_lo = min(max(milp.lo[top], kappa), milp.hi[top])
@@ -352,7 +352,8 @@ class MilpPathSeed(KinematicGuess):
         self.choices = None  # this seed's, after ``invert``
 
     def solve(self, lowered, problem):
-        from stlc.backends import apart, schedule
+        from stlc.backends.nlp import apart
+        from stlc.backends.nlp import schedule
 
         t0 = time.perf_counter()
         builds = []  # the kinematic NLP, built in a thread while HiGHS runs
@@ -363,7 +364,7 @@ class MilpPathSeed(KinematicGuess):
                                   or rec.get("bound", np.inf) < problem.threshold):
             # no seed path reaches κ: HiGHS proved it, or the encoding's bound on ρ̂ is
             # below κ already (its feasibility phase then finds a path at that bound)
-            from stlc.backends.milp_conflict import prove_infeasible
+            from stlc.backends.milp.conflict import prove_infeasible
 
             proof = prove_infeasible(problem)  # HiGHS only: beside the build, too
             rec["proof_s"] = time.perf_counter() - t0 - rec.get("total_s", 0.0)
@@ -411,7 +412,7 @@ class MilpPathSeed(KinematicGuess):
         (paths, rec, proof), dt_s, cpu_s, waited_s = raw
         self.choices = rec.pop("choices", None)
         if proof is not None:
-            from stlc.backends.milp_conflict import mark
+            from stlc.backends.milp.conflict import mark
             from stlc.planning.fallback import hover_solution
 
             sol = hover_solution(problem, "no plan exists", why="the mission is proved "

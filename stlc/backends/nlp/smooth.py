@@ -59,7 +59,7 @@ from collections.abc import Callable, Mapping
 import casadi as ca
 import numpy as np
 
-from stlc.backends.casadi_expr import (
+from stlc.backends.nlp.expr import (
     BIG,
     Alg,
     ExprEnv,
@@ -69,7 +69,7 @@ from stlc.backends.casadi_expr import (
     lower_expr,
     max_alg,
 )
-from stlc.backends.smooth_windows import (
+from stlc.backends.nlp.windows import (
     _LAM,
     _PARAM,
     LoweredRobustness,

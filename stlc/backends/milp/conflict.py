@@ -38,9 +38,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from stlc import deadline, vehicles
-from stlc.backends.milp_backend import build
-from stlc.backends.milp_encode import NotLinear
-from stlc.backends.milp_model import Highs
+from stlc.backends.milp.backend import build
+from stlc.backends.milp.encode import NotLinear
+from stlc.backends.milp.model import Highs
 from stlc.diagnostics import Diagnostic
 from stlc.semantics import ir
 
@@ -54,7 +54,7 @@ REQUIRE = "require"
 def exact_model(problem) -> bool:
     """Every vehicle is linear and planned with its zero-order-hold model (the NLP's RK4 is
     exact on it): the proof may use the vehicles' own discrete dynamics, not a relaxation."""
-    from stlc.backends.milp_backend import linear_model
+    from stlc.backends.milp.backend import linear_model
 
     return (problem.integrator == "rk4"
             and all(linear_model(v) is not None for v in problem.vehicles()))
@@ -104,7 +104,7 @@ def _drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
     """``f`` with every predicate that is not affine (a distance, a norm) made to read a
     signal no relaxation keeps, so that ``restrict`` replaces it by ``true`` (sound: the
     formula is in NNF)."""
-    from stlc.backends.milp_encode import affine
+    from stlc.backends.milp.encode import affine
 
     hit = memo.get(id(f))
     if hit is not None:
@@ -189,7 +189,7 @@ def prove_infeasible(problem) -> Proof | None:
         return None
     keep = _kept_channels(problem)
     if exact:
-        from stlc.backends.milp_backend import planned_channels
+        from stlc.backends.milp.backend import planned_channels
 
         keep |= planned_channels(problem)
     restrict = lambda f: ir.restrict(_drop_nonlinear(f, problem.params, {}),  # noqa: E731

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from stlc.backends import registry
+from stlc.backends.registry import registry
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
 
 CHAINS: dict[str, tuple[str, ...]] = {

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from stlc.backends.casadi_expr import LoweringError
+from stlc.backends.nlp.expr import LoweringError
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 

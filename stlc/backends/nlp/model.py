@@ -34,11 +34,13 @@ import casadi as ca
 import numpy as np
 
 from stlc import deadline, vehicles
-from stlc.backends import choices, derivatives, flyable
+from stlc.backends.nlp import choices
+from stlc.backends.nlp import derivatives
+from stlc.backends.nlp import flyable
 from stlc.backends.base import SolverStatus
-from stlc.backends.casadi_expr import planner_form
-from stlc.backends.smooth_casadi import lower_robustness
-from stlc.backends.smooth_windows import LoweredRobustness
+from stlc.backends.nlp.expr import planner_form
+from stlc.backends.nlp.smooth import lower_robustness
+from stlc.backends.nlp.windows import LoweredRobustness
 from stlc.vehicles import dynamics
 from stlc.vehicles.dynamics import substeps
 from stlc.planning.problem import PlanningProblem

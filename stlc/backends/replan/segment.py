@@ -48,8 +48,8 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.backends.base import ALL_FUNCTIONS, Backend, Capabilities, SolverStatus
-from stlc.backends.casadi_expr import ExprEnv, gkl_max, lower_expr, planner_form, smin
-from stlc.backends.casadi_nlp import STATUS_MAP, substeps
+from stlc.backends.nlp.expr import ExprEnv, gkl_max, lower_expr, planner_form, smin
+from stlc.backends.nlp.model import STATUS_MAP, substeps
 from stlc.planning.kept import BODY_NODES, Clause, kept_clauses
 from stlc.planning.solution import Solution, Verdict
 from stlc.semantics import ir, model

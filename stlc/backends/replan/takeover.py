@@ -41,7 +41,7 @@ from dataclasses import replace
 import numpy as np
 
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
-from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
+from stlc.backends.nlp.backend import IPOPT_STATUS_MAP
 from stlc.planning.problem import PlanningProblem
 from stlc.planning.solution import Solution, Verdict
 from stlc.planning.takeover import BackupPlan, Fixed
@@ -156,7 +156,7 @@ class TakeoverBackend(Backend):
         return (base, backup, fixed), None
 
     def solve(self, lowered, problem: PlanningProblem) -> BackupPlan:
-        from stlc.backends.team_backend import forward_speed_target
+        from stlc.backends.team.backend import forward_speed_target
 
         base, backup, fixed = lowered
         t0, t_end = problem.window

@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from stlc.backends.base import ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities, SolverStatus
-from stlc.backends.casadi_backend import IPOPT_STATUS_MAP
+from stlc.backends.nlp.backend import IPOPT_STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.planning.solution import Comparison, Solution, Verdict
 from stlc.planning.bounds import stated_bounds
