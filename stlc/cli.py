@@ -231,7 +231,12 @@ def _failure(text: str) -> tuple[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from stlc import interrupt
+    from stlc import interrupt, settings
+
+    # IPOPT's sparse solver (MUMPS) and BLAS would start one thread per core; on small KKT
+    # systems (~10k rows) the threads only contend (a solve spent 4x more wall time than
+    # CPU time in the linear solver on a 2-core machine): one each, set before they load
+    settings.limit_solver_threads()
 
     parser = _parser()
     args = parser.parse_args(argv)
@@ -269,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except Exception as e:  # noqa: BLE001 - the last line of defence
-        if os.environ.get("STLC_DEBUG"):
+        if settings.debug():
             traceback.print_exc()
         print(f"stlc: internal error: {type(e).__name__}: {e}\n"
               "  = help: this is a bug in stlc; rerun with STLC_DEBUG=1 for details",

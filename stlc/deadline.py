@@ -99,11 +99,9 @@ def clear() -> None:
 def default_limit() -> float:
     """``DEFAULT_LIMIT_S``, or the developers' ``STLC_DEFAULT_TIME_LIMIT`` when it is a
     positive number of seconds."""
-    with contextlib.suppress(ValueError):
-        x = float(os.environ.get("STLC_DEFAULT_TIME_LIMIT", ""))
-        if math.isfinite(x) and x > 0:
-            return x
-    return DEFAULT_LIMIT_S
+    from stlc import settings
+
+    return settings.default_time_limit(DEFAULT_LIMIT_S)
 
 
 def is_default() -> bool:

@@ -4,6 +4,7 @@ stays inside one unit (a folder, or a top-level module).
 
 The units, lowest first (``LAYERS``)::
 
+    settings   the one reader of the process environment
     ground     stlc (the package), diagnostics, interrupt, strictjson, exitcodes, schemas
                (JSON data), deadline
     limits     resource limits: size-limited reads, memory budget, instance limits
@@ -37,6 +38,7 @@ from collections import defaultdict
 from test_import_graph import graph
 
 LAYERS: list[set[str]] = [
+    {"settings"},
     {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas", "deadline",
      "lazy"},
     {"limits"},

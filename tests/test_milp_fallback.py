@@ -11,14 +11,16 @@ import numpy as np
 
 from stlc import pipeline
 from stlc.backends.milp import backend as milp_backend
-from stlc.backends.milp.model import Result
+from stlc.solvers.highs import Result
+from stlc.solvers.status import SolverStatus
 
 MISSION = Path(__file__).parent.parent / "specs" / "benchmarks" / "reach_avoid.stl"
 
 
 def _stopped(self, low, problem):
     """What HiGHS returns when its time limit ends the search before any incumbent."""
-    return Result("Time limit reached", None, float("inf"), -float("inf"), float("inf"), 0, 0.0)
+    return Result(SolverStatus.MAX_TIME, None, float("inf"), -float("inf"), float("inf"), 0, 0.0,
+                  "Time limit reached")
 
 
 def _load():

@@ -49,10 +49,9 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     ``preempt``: the name of a Dask ``Event`` the client sets to pre-empt this (cold)
     instance — its solve stops as on its time limit and the row says ``preempted`` (the
     client solves the instance again, warm started: ``stlc.sweep.run``)."""
-    from stlc import deadline
+    from stlc import deadline, settings
     from stlc.backends.nlp import cache as nlp_cache
 
-    os.environ.setdefault("STLC_NO_FORK", "1")  # no fork inside a Dask worker process
     t0 = time.perf_counter()
     row: dict = {"instance": index, "values": values, "status": "failed", "error": "",
                  "robustness": float("nan"), "specs": {}, "iterations": 0, "solve_s": 0.0,
@@ -61,7 +60,9 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     builds = nlp_cache.STATS["builds"]
     fired = threading.Event()
     try:
-        with deadline.bounded(time_limit), preemptible(_event(preempt), fired):
+        # no fork inside a Dask worker process
+        with deadline.bounded(time_limit), preemptible(_event(preempt), fired), \
+                settings.override(no_fork=True):
             row.update(_plan(source, path, mission, items, values, warm, seeds))
     except Exception as e:  # noqa: BLE001 - one instance's failure is a row, not a lost sweep
         from stlc.diagnostics import StlcError
@@ -70,7 +71,7 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
             row["error"] = "; ".join(f"{d.code}: {d.message}" for d in e.diagnostics)
         else:
             row["error"] = f"{type(e).__name__}: {e}"
-            if os.environ.get("STLC_DEBUG"):
+            if settings.debug():
                 row["error"] += "\n" + traceback.format_exc()
     row["built"] = nlp_cache.STATS["builds"] > builds
     row["preempted"] = fired.is_set()

@@ -28,6 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from stlc import deadline
+from stlc.solvers import ipopt as ipopt_solver
 from stlc.team import Drone, TeamPlan, TeamScenario, Visit
 from stlc.team.retime import Schedule
 from stlc.team.waypoints import _locate, check_times, hermite_weights, overshoot
@@ -239,7 +240,7 @@ class TeamNLP:
         opts = dict(_IPOPT)
         opts.update(ipopt or {})
         opts.update(deadline.ipopt_options())  # the run's time limit (stlc.deadline)
-        solver = ca.nlpsol("refine", "ipopt", {"x": w, "f": f, "g": gg}, opts)
+        solver = ipopt_solver.solver("refine", {"x": w, "f": f, "g": gg}, opts)
         return (solver, np.concatenate(lb), np.concatenate(ub), lbx, ubx, int(gg.numel()))
 
     def transit_mask(self, name: str) -> np.ndarray:

@@ -46,7 +46,7 @@ class Outcome:
     times: dict[str, float]  # route time per drone (the trips' costs), s
     objective: float
     bound: float  # dual bound (= objective when optimal)
-    status: str  # "optimal" | "time" | "infeasible" | "error"
+    status: str  # a ``SolverStatus``: optimal | max_time | infeasible | failed
     columns: int  # trips in the model
 
 

@@ -23,8 +23,10 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.backends.base import ALL_NODES, Backend, Capabilities, SolverStatus, unsupported
-from stlc.backends.milp.encode import Encoder, NotLinear, Term, affine
-from stlc.backends.milp.model import INF, Highs, LinearVehicle, Milp, linear_vehicle
+from stlc.backends.milp.encode import ONE_HOT_MAX, Encoder, NotLinear, Term, affine
+from stlc.backends.milp.model import INF, LinearVehicle, Milp, linear_vehicle
+from stlc.solvers.highs import STATUS_MAP as HIGHS_STATUS_MAP
+from stlc.solvers.highs import Highs
 from stlc.diagnostics import Diagnostic
 from stlc.planning.solution import Solution, Verdict
 from stlc import deadline
@@ -43,17 +45,6 @@ LARGE_LIMIT_S = 20.0
 #: LP rounds of the start's local search (the 60 s patrol at 0.2 s: ρ̂ 0.121 after one,
 #: 0.129 after six, 0.15 s each)
 ROUNDS = 3
-
-HIGHS_STATUS_MAP = {
-    "Optimal": SolverStatus.OPTIMAL,
-    "Time limit reached": SolverStatus.MAX_TIME,
-    "Iteration limit reached": SolverStatus.MAX_ITER,
-    "Infeasible": SolverStatus.INFEASIBLE,
-    "Primal infeasible or unbounded": SolverStatus.INFEASIBLE,
-    "Interrupted by user": SolverStatus.INTERRUPTED,
-    "Solve error": SolverStatus.FAILED,
-    "Unbounded": SolverStatus.FAILED,
-}
 
 
 def linear_model(v):
@@ -116,7 +107,7 @@ def invariant_box(problem: PlanningProblem) -> dict[str, tuple[float, float]]:
 
 def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
           box: dict[str, tuple[float, float]] | None = None,
-          top_of: str | None = None) -> Lowered:
+          top_of: str | None = None, one_hot: int = ONE_HOT_MAX) -> Lowered:
     """The MILP of ``problem``'s vehicles with each formula of ``formulas`` encoded at
     sample 0 (``terms``; ``spans``: the columns each one added), and the epigraph column
     ρ̂ of formula ``top_of`` (default: the only formula); ``lins`` maps a vehicle to its
@@ -162,7 +153,7 @@ def build(problem: PlanningProblem, formulas: dict[str, ir.Formula], lins=None,
         f = problem.fixed_channels.get(name)
         return None if f is None else np.asarray(f, dtype=float)
 
-    enc = Encoder(m, grid, dict(problem.params), channel, fixed)
+    enc = Encoder(m, grid, dict(problem.params), channel, fixed, one_hot)
     terms, spans = {}, {}
     for name, f in formulas.items():  # in order: later formulas reuse earlier terms (memo)
         c0 = m.n_cols
@@ -206,9 +197,13 @@ class ExactMilp(Backend):
     STATUS_MAP = HIGHS_STATUS_MAP
     lower_needs_seed = False  # built while a coarse start (``milp_start``) solves apart
 
-    def __init__(self, quiet: bool = True, time_limit: float | None = None):
+    def __init__(self, quiet: bool = True, time_limit: float | None = None,
+                 one_hot: int = ONE_HOT_MAX):
         self.quiet = quiet
         self.time_limit = time_limit
+        #: disjunctions of at most this many operands get one binary each, wider ones the
+        #: logarithmic encoding (the default: always one-hot, measured faster with HiGHS)
+        self.one_hot = one_hot
 
     def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
         out = unsupported(self, problem)
@@ -218,7 +213,8 @@ class ExactMilp(Backend):
 
     def lower(self, problem: PlanningProblem):
         box = invariant_box(problem)
-        low = build(problem, {"requirement": problem.requirement}, box=box)
+        low = build(problem, {"requirement": problem.requirement}, box=box,
+                    one_hot=self.one_hot)
         low.box = box
         return low, low
 
@@ -245,7 +241,7 @@ class ExactMilp(Backend):
         if problem.hold_end and not self._reaches(res, low, problem):
             free_problem = replace(problem, hold_end=False)
             free = build(free_problem, {"requirement": problem.requirement},
-                         box=low.box or None)
+                         box=low.box or None, one_hot=self.one_hot)
             free.box = low.box
             self.phases.append(("no plan at rest reaches κ: without the holdable end",
                                 "started", 0.0))
@@ -274,10 +270,10 @@ class ExactMilp(Backend):
         start = self._seed_start(low, problem, limit)
         proof = only_above_kappa and (not low.box or problem.threshold >= 0)
         res = self._two_phase(low, problem, limit - (time.perf_counter() - t0), start, proof)
-        if proof and res.x is None and res.status == "Infeasible":
+        if proof and res.x is None and res.highs_status == "Infeasible":
             return res
         if low.box and not (res.x is not None and -res.objective >= 0):
-            full = build(problem, {"requirement": problem.requirement})
+            full = build(problem, {"requirement": problem.requirement}, one_hot=self.one_hot)
             left = limit - (time.perf_counter() - t0)
             res2 = self._two_phase(full, problem, max(left, 1.0))
             low.milp, low.vehicles, low.top = full.milp, full.vehicles, full.top
@@ -322,7 +318,7 @@ class ExactMilp(Backend):
                                      0.1))
             h.fix_integers(x)
             pol = h.solve()
-            self.phases.append(("coarse start (choices fixed)", pol.status, pol.wall_s))
+            self.phases.append(("coarse start (choices fixed)", pol.highs_status, pol.wall_s))
             if pol.x is None or (best is not None and
                                  pol.x[low.top] <= best.x[low.top] + 1e-6):
                 break
@@ -348,8 +344,8 @@ class ExactMilp(Backend):
             if start is not None:
                 h.start(start.x)
             first = h.solve()
-            self.phases.append(("feasibility", first.status, first.wall_s))
-            if only_above_kappa and first.status == "Infeasible":
+            self.phases.append(("feasibility", first.highs_status, first.wall_s))
+            if only_above_kappa and first.highs_status == "Infeasible":
                 return first
             if first.x is None and start is not None:
                 first.x = start.x
@@ -362,13 +358,13 @@ class ExactMilp(Backend):
                 1 + abs(res.objective)):
             # HiGHS (1.x) can return the MIP start's point beside another point's objective
             # (seen when presolve ends the search): never trust one without the other
-            self.phases.append(("optimisation (inconsistent point)", res.status, res.wall_s))
+            self.phases.append(("optimisation (inconsistent point)", res.highs_status, res.wall_s))
             h = Highs(low.milp, {low.top: -1.0},
                       time_limit=max(limit - (time.perf_counter() - t0), 1.0))
             wall = res.wall_s
             res = h.solve()
             res.wall_s += wall
-        self.phases.append(("optimisation", res.status, res.wall_s))
+        self.phases.append(("optimisation", res.highs_status, res.wall_s))
         res.wall_s += first.wall_s
         if res.x is None and first.x is not None:
             res.x, res.objective = first.x, -float(first.x[low.top])
@@ -376,7 +372,7 @@ class ExactMilp(Backend):
 
     def invert(self, res, low: Lowered, problem: PlanningProblem) -> Solution:
         n = problem.grid.n
-        status = self.status(res.status)
+        status = self.status(res.highs_status)
         x = res.x
         if x is None:  # no incumbent: hold the inputs at zero (a dynamically feasible plan)
             x = np.zeros(low.milp.n_cols)
@@ -403,7 +399,7 @@ class ExactMilp(Backend):
             times=problem.grid.times(), channels=ch,
             timing={"build_s": low.build_s, "solve_s": res.wall_s},
             solver={"name": "HiGHS MILP (highspy)", "return_status": str(status),
-                    "highs_status": res.status, "converged": status.converged,
+                    "highs_status": res.highs_status, "converged": status.converged,
                     "objective": rho, "bound": bound,
                     "gap": None if status.converged else _gap(rho, bound),
                     "nodes": res.nodes, "iterations": res.nodes,

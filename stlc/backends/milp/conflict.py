@@ -40,7 +40,7 @@ import numpy as np
 from stlc import deadline, vehicles
 from stlc.backends.milp.backend import build
 from stlc.backends.milp.encode import NotLinear
-from stlc.backends.milp.model import Highs
+from stlc.solvers.highs import Highs
 from stlc.diagnostics import Diagnostic
 from stlc.semantics import ir
 
@@ -157,9 +157,9 @@ class _Checker:
             if r is not None:
                 lo = self.kappa - self.const[n] if n in names else -np.inf
                 self.h.set_row_bounds(r, lo, np.inf)
-        self.h.h.setOptionValue("time_limit", float(max(limit, 0.05)))
+        self.h.set_time_limit(max(limit, 0.05))
         res = self.h.solve()
-        if res.status == "Infeasible":
+        if res.highs_status == "Infeasible":
             return True
         return False if res.x is not None else None
 

@@ -31,7 +31,6 @@ repeated) is encoded once.  A predicate that is not affine in the planned channe
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
 from stlc.backends.milp.model import INF, Milp
@@ -155,7 +154,8 @@ class Encoder:
     """Encodes formulas into ``milp``; ``channel(name, k)`` gives (column, lo, hi) of a
     planned channel or None, ``fixed(name)`` the samples of a fixed channel or None."""
 
-    def __init__(self, milp: Milp, grid: TimeGrid, params: dict[str, float], channel, fixed):
+    def __init__(self, milp: Milp, grid: TimeGrid, params: dict[str, float], channel, fixed,
+                 one_hot: int = ONE_HOT_MAX):
         self.m, self.grid, self.params = milp, grid, params
         self.channel, self.fixed = channel, fixed
         self.memo: dict = {}
@@ -165,8 +165,8 @@ class Encoder:
         self.nodes: list[tuple] = []
         self.binaries = 0
         #: disjunctions of at most this many operands get one binary per operand, wider
-        #: ones the logarithmic encoding (``STLC_MILP_ONE_HOT`` overrides, for measuring)
-        self.one_hot = int(os.environ.get("STLC_MILP_ONE_HOT", ONE_HOT_MAX))
+        #: ones the logarithmic encoding (``ExactMilp(one_hot=...)``)
+        self.one_hot = one_hot
 
     # ----------------------------------------------------------------- combinators
 

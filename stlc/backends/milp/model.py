@@ -1,12 +1,13 @@
-"""A mixed-integer linear program under construction, and its solve by HiGHS (``highspy``).
+"""A mixed-integer linear program under construction, solved by HiGHS (``stlc.solvers.highs``).
 
 ``Milp`` collects columns (bounds, integrality) and rows (sparse coefficients, bounds) as
-plain lists; ``solve`` hands the model to HiGHS in one ``passModel`` call.  HiGHS is driven
-through ``highspy`` directly rather than through cvxpy because the exact backend needs what
-cvxpy's HiGHS interface does not expose: the incumbent *and* the dual bound when the user's
-time limit stops branch and bound (a plan reported ``not converged`` with its gap), a MIP
-start (``setSolution``), and changing a few row bounds of a built model and solving again
-(the deletion filter of ``stlc.backends.milp.conflict`` re-solves one model many times).
+plain lists; the HiGHS adapter (``stlc.solvers.highs.Highs``) hands it to HiGHS in one
+``passModel`` call, through ``highspy`` directly rather than through cvxpy because the
+exact backend needs what cvxpy's HiGHS interface does not expose: the incumbent *and* the
+dual bound when the user's time limit stops branch and bound (a plan reported ``not
+converged`` with its gap), a MIP start (``setSolution``), and changing a few row bounds of
+a built model and solving again (the deletion filter of ``stlc.backends.milp.conflict``
+re-solves one model many times).
 
 ``LinearVehicle`` puts a linear vehicle on the grid: state columns x_k (k = 0 … n−1), input
 columns u_k (k = 0 … n−2, the zero-order hold of the NLP: for the double integrator the
@@ -18,9 +19,6 @@ to the bounds) from which each predicate's big-M is derived.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,122 +65,6 @@ class Milp:
     @property
     def n_binaries(self) -> int:
         return int(sum(self.integer))
-
-
-@dataclass
-class Result:
-    status: str  # HiGHS's model status, e.g. "Optimal", "Infeasible", "Time limit reached"
-    x: np.ndarray | None  # the incumbent (None: none found)
-    objective: float  # of the incumbent, in the model's (minimisation) sense
-    bound: float  # HiGHS's dual bound (a lower bound of the minimum)
-    gap: float
-    nodes: int
-    wall_s: float
-
-
-@contextlib.contextmanager
-def _stdout_closed():
-    """HiGHS prints its banner on its first object; keep stdout (a user's pipe) clean."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 1)
-            yield
-    finally:
-        sys.stdout.flush()
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
-#: HiGHS options for a MILP that only looks for a feasible point (the MILP seed's first
-#: phase): no RINS/RENS sub-MIPs and no restart.  Measured on 20 handovers' seeds (session
-#: 6): 28.7 → 16.6 s in all, the slowest 5.7 → 1.4 s; the sub-MIPs took two thirds of the
-#: time and the point was found by the tree search (under another random seed: 19.9 → 15.3 s)
-FEASIBILITY_OPTIONS = {"mip_heuristic_run_rins": False, "mip_heuristic_run_rens": False,
-                       "mip_allow_restart": False}
-
-
-class Highs:
-    """One HiGHS model of a ``Milp`` with the objective ``cost``; ``solve`` may be called
-    again after ``set_row_bounds`` (the model is not rebuilt).  ``feasibility``: the
-    ``FEASIBILITY_OPTIONS`` (a search for one feasible point)."""
-
-    def __init__(self, m: Milp, cost: dict[int, float], *, time_limit: float | None = None,
-                 rel_gap: float = 1e-9, abs_gap: float = 1e-9, feasibility: bool = False):
-        import highspy
-
-        with _stdout_closed():
-            self.h = h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
-        h.setOptionValue("threads", 1)
-        h.setOptionValue("mip_rel_gap", rel_gap)
-        h.setOptionValue("mip_abs_gap", abs_gap)
-        h.setOptionValue("mip_feasibility_tolerance", 1e-9)
-        h.setOptionValue("primal_feasibility_tolerance", 1e-9)
-        if time_limit is not None:
-            h.setOptionValue("time_limit", float(max(time_limit, 0.01)))
-        for k, v in (FEASIBILITY_OPTIONS.items() if feasibility else ()):
-            h.setOptionValue(k, v)
-        lp = highspy.HighsLp()
-        n = m.n_cols
-        lp.num_col_, lp.num_row_ = n, len(m.rows)
-        c = np.zeros(n)
-        for j, v in cost.items():
-            c[j] += v
-        lp.col_cost_ = c
-        lp.col_lower_ = np.asarray(m.lo, dtype=float)
-        lp.col_upper_ = np.asarray(m.hi, dtype=float)
-        lp.row_lower_ = np.asarray([r[1] for r in m.rows], dtype=float)
-        lp.row_upper_ = np.asarray([r[2] for r in m.rows], dtype=float)
-        a = m.matrix()
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.start_ = a.indptr
-        lp.a_matrix_.index_ = a.indices
-        lp.a_matrix_.value_ = a.data
-        lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = n, len(m.rows)
-        lp.integrality_ = [highspy.HighsVarType.kInteger if b else
-                           highspy.HighsVarType.kContinuous for b in m.integer]
-        h.passModel(lp)
-        self.n = n
-        self.integers = np.flatnonzero(m.integer)
-
-    def set_row_bounds(self, row: int, lo: float, hi: float) -> None:
-        self.h.changeRowBounds(row, lo, hi)
-
-    def set_col_bounds(self, col: int, lo: float, hi: float) -> None:
-        self.h.changeColBounds(col, lo, hi)
-
-    def fix_integers(self, x: np.ndarray) -> None:
-        """Every integer column fixed at its (rounded) value in ``x``: the discrete choices
-        of a point kept, the rest an LP."""
-        for j in self.integers:
-            v = float(round(x[j]))
-            self.h.changeColBounds(int(j), v, v)
-
-    def start(self, x: np.ndarray) -> None:
-        """A MIP start (HiGHS completes or repairs it)."""
-        import highspy
-
-        sol = highspy.HighsSolution()
-        sol.col_value = list(np.asarray(x, dtype=float))
-        sol.value_valid = True
-        self.h.setSolution(sol)
-
-    def solve(self) -> Result:
-        import time
-
-        t0 = time.perf_counter()
-        self.h.run()
-        wall = time.perf_counter() - t0
-        status = self.h.modelStatusToString(self.h.getModelStatus())
-        info = self.h.getInfo()
-        x = None
-        if info.primal_solution_status >= 2:  # feasible
-            x = np.asarray(self.h.getSolution().col_value, dtype=float)
-        return Result(status, x, float(info.objective_function_value),
-                      float(info.mip_dual_bound), float(info.mip_gap),
-                      int(info.mip_node_count), wall)
 
 
 # --------------------------------------------------------------------------- vehicles

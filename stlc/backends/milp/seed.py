@@ -222,7 +222,7 @@ def plan(problem, time_limit: float = TIME_LIMIT_S, quiet: bool = True,
         rec["bound"] = float(milp.hi[low.top])
 
     def record(res, phases) -> tuple[dict | None, dict]:
-        r = {**rec, "status": res.status, "wall_s": sum(p[2] for p in phases),
+        r = {**rec, "status": res.highs_status, "wall_s": sum(p[2] for p in phases),
              "nodes": res.nodes, "phases": [list(p) for p in phases]}
         if res.x is None:
             return None, r
@@ -265,7 +265,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     When HiGHS proves that no path reaches κ, that result is returned at once (the caller
     asks the sound relaxation for a proof); when none was found in time, the whole MILP
     maximises ρ̂ − penalty in the time left and its incumbent, if any, is the seed."""
-    from stlc.backends.milp.model import Highs
+    from stlc.solvers.highs import Highs
 
     t0 = time.perf_counter()
     left = lambda: max(limit - (time.perf_counter() - t0), 0.05)  # noqa: E731
@@ -276,8 +276,8 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
         h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6, feasibility=True)
         h.set_col_bounds(top, kappa_lo, milp.hi[top])
         best = h.solve()
-        phases.append(("feasibility", best.status, best.wall_s))
-        if best.status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
+        phases.append(("feasibility", best.highs_status, best.wall_s))
+        if best.highs_status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
             return best, phases
         x = None if best.x is None else best.x.copy()
         penalty = {j: c for j, c in cost.items() if j != top}
@@ -287,7 +287,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
             h.set_col_bounds(top, kappa_lo, milp.hi[top])
             h.fix_integers(x)
             res = h.solve()
-            phases.append(("shorter path (choices fixed)", res.status, res.wall_s))
+            phases.append(("shorter path (choices fixed)", res.highs_status, res.wall_s))
             if res.x is None:
                 break
             x = res.x.copy()
@@ -298,13 +298,13 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     h = Highs(milp, cost, time_limit=left(), rel_gap=1e-3, abs_gap=1e-4)
     if x is None:  # no path with ρ̂ ≥ κ found in time: the whole MILP for what it finds
         res = h.solve()
-        phases.append(("optimisation", res.status, res.wall_s))
+        phases.append(("optimisation", res.highs_status, res.wall_s))
         return res, phases
     h.fix_integers(x)  # its choices fixed: an LP
     res = h.solve()
-    phases.append(("polish (choices fixed)", res.status, res.wall_s))
+    phases.append(("polish (choices fixed)", res.highs_status, res.wall_s))
     if res.x is None:
-        res.x, res.status = best.x, best.status
+        res.x, res.status, res.highs_status = best.x, best.status, best.highs_status
         return res, phases
     if free and top >= 0 and left() > 2 * POLISH_S:
         res, more = _free(milp, top, cost, kappa, res, left())
@@ -317,7 +317,7 @@ def _free(milp, top: int, cost: dict[int, float], kappa: float, res, limit: floa
     ρ̂ − penalty (a small MILP closes in far less than ``FREE_S``; a handover's does not,
     and keeps its), polished with its choices fixed: (the better result, or ``res`` itself
     when there is none, and the phases)."""
-    from stlc.backends.milp.model import Highs
+    from stlc.solvers.highs import Highs
 
     t0 = time.perf_counter()
     kappa_lo = min(max(milp.lo[top], kappa), milp.hi[top])
@@ -326,13 +326,13 @@ def _free(milp, top: int, cost: dict[int, float], kappa: float, res, limit: floa
     h.set_col_bounds(top, kappa_lo, milp.hi[top])
     h.start(res.x)
     free = h.solve()
-    phases = [("better class (choices free)", free.status, free.wall_s)]
+    phases = [("better class (choices free)", free.highs_status, free.wall_s)]
     if free.x is not None and free.objective < res.objective - 1e-6:
         h = Highs(milp, cost, time_limit=max(limit - (time.perf_counter() - t0), 0.05),
                   rel_gap=1e-3, abs_gap=1e-4)
         h.fix_integers(free.x)
         pol = h.solve()
-        phases.append(("polish (choices fixed)", pol.status, pol.wall_s))
+        phases.append(("polish (choices fixed)", pol.highs_status, pol.wall_s))
         res = pol if pol.x is not None and pol.objective <= free.objective + 1e-9 else free
     return res, phases
 

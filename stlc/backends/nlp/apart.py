@@ -25,7 +25,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from stlc import interrupt
+from stlc import interrupt, settings
 
 POLL_S = 0.05
 
@@ -49,7 +49,7 @@ def _cpu(rusage) -> float:
 
 def start(fn: Callable[..., Any], *args: Any) -> Callable[[], tuple[Any, float]]:
     """Call ``fn(*args)`` in a forked child; the returned waiter gives (result, child CPU s)."""
-    if not hasattr(os, "fork") or os.environ.get("STLC_NO_FORK") == "1":
+    if not hasattr(os, "fork") or settings.no_fork():
         return _inline(fn, args)
     rfd, wfd = os.pipe()
     pid = os.fork()

@@ -18,7 +18,6 @@ counts the builds of this process.
 from __future__ import annotations
 
 import hashlib
-import os
 from collections import OrderedDict
 from dataclasses import replace
 
@@ -39,7 +38,6 @@ def _blank_start(v: model.Vehicle) -> model.Vehicle:
 
 def structure_key(problem: PlanningProblem) -> str:
     """What the built NLP depends on, except the values ``bind`` sets."""
-    from stlc.backends.nlp import model as casadi_nlp
     from stlc.backends.nlp.expr import planner_form
 
     program, grid = problem.program, problem.grid
@@ -47,8 +45,7 @@ def structure_key(problem: PlanningProblem) -> str:
     parts = (tuple(repr(_blank_start(program.vehicles[n])) for n in problem.team),
              repr(planned), problem.threshold, problem.smoothing, problem.objective,
              problem.hold_end, problem.max_iter, grid.n, grid.dt,
-             problem.integrator, casadi_nlp.FIX_CHOICES, casadi_nlp.FIX_WINDOWS,
-             os.environ.get("STLC_IPOPT", ""))
+             problem.integrator)
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 

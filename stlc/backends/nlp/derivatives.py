@@ -27,7 +27,7 @@ import re
 import casadi as ca
 import numpy as np
 
-from stlc import vehicles
+from stlc import settings, vehicles
 from stlc.vehicles import dynamics
 
 CHUNK_ROWS = 256
@@ -38,9 +38,7 @@ def map_threads() -> int:
     """Threads of the derivatives' map: every core (at most ``MAX_THREADS``), or
     ``STLC_MAP_THREADS`` — a sweep's local cluster sets it to its share of the cores (K
     worker processes on K cores: 1), where two threads per worker only oversubscribed."""
-    cap = os.environ.get("STLC_MAP_THREADS", "")
-    return max(1, min(os.cpu_count() or 1, MAX_THREADS,
-                      int(cap) if cap.isdigit() else MAX_THREADS))
+    return max(1, min(os.cpu_count() or 1, MAX_THREADS, settings.map_threads(MAX_THREADS)))
 
 
 def _map(fn: ca.Function, n: int) -> ca.Function:

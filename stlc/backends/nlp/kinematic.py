@@ -21,12 +21,13 @@ import numpy as np
 
 from stlc import deadline, interrupt, vehicles
 from stlc.backends.nlp import choices
-from stlc.backends.nlp.model import MUMPS
 from stlc.backends.nlp.derivatives import derivative_options
 from stlc.backends.nlp.smooth import lower_robustness
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
+from stlc.solvers import ipopt
+from stlc.solvers.ipopt import MUMPS
 
 GUESS_LAM = 30.0
 #: the guess smooths the MILP seed's path (or finds one): a seed, not a plan.  IPOPT ends it
@@ -141,14 +142,14 @@ class GuessNlp:
         p = ca.vertcat(*[ca.vec(chans[c]) for c in self.rows]) if self.rows else None
         nlp, derivs = derivative_options(ca.vertcat(*syms, low.aux), obj - low.root,
                                          ca.vertcat(*g, cons), p)
-        self.solver = ca.nlpsol("guess", "ipopt", nlp, {
+        self.solver = ipopt.solver("guess", nlp, {
             **derivs,
             "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
             "ipopt.max_iter": GUESS_MAX_ITER, "ipopt.tol": 1e-4,
             # bound multipliers μ/slack, as the NLP's: 7 handovers' guesses 22.4 → 16.3 s in
             # all (turned 180°: 6.1 → 1.8 s); 20 handovers' compile median 11.9 → 10.4 s
             "ipopt.bound_mult_init_method": "mu-based", **GUESS_ACCEPTABLE,
-            # adaptive μ.  Tried and not kept (session 5): monotone μ from 1e-3 from a MILP
+            # adaptive μ (monotone μ from 1e-3 from a MILP path was measured worse:
             # path — 14 handovers' guesses 430 → 307 iterations and none at the 80 cap, but
             # on an unseen handover (h24) its converged path led the energy stage to miss κ
             # and the compile took 58 s instead of 22 s (the schedule's whole fallback)

@@ -24,8 +24,6 @@ to a ``Solution`` in mission-level names, re-evaluated by the exact monitor.
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -33,11 +31,12 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from stlc import deadline, vehicles
+from stlc import deadline, settings, vehicles
 from stlc.backends.nlp import choices
 from stlc.backends.nlp import derivatives
 from stlc.backends.nlp import flyable
-from stlc.backends.base import SolverStatus
+from stlc.solvers import ipopt
+from stlc.solvers.ipopt import MUMPS, STATUS_MAP  # noqa: F401 (the NLP family's names)
 from stlc.backends.nlp.expr import planner_form
 from stlc.backends.nlp.smooth import lower_robustness
 from stlc.backends.nlp.windows import LoweredRobustness
@@ -53,8 +52,8 @@ INPUT_REG = 1e-4
 PLAN_MARGIN = 1e-3
 #: the energy stage keeps the robust plan's branch of every disjunction of predicates
 #: (``choices``): sound, and it removes the smooth max's negative curvature
-FIX_CHOICES = os.environ.get("STLC_FIX_CHOICES", "1") == "1"
-FIX_WINDOWS = os.environ.get("STLC_FIX_WINDOWS", "1") == "1"  # and of every ``eventually``
+FIX_CHOICES = True
+FIX_WINDOWS = True  # and of every ``eventually``
 FEASIBLE_DEFECT = 1e-6  # max dynamics defect of an iterate accepted as a plan
 
 
@@ -72,14 +71,6 @@ def dynamics_defect(w: np.ndarray, inv: InverseData, integrator: str = "rk4") ->
     return worst
 
 
-#: MUMPS: AMD ordering, no matrix scaling.  Its default (automatic ordering, scaling
-#: recomputed at every factorisation) cost 120 ms per iteration on the handover's ~10 k KKT
-#: system; this costs 75 ms (40 iterations of the λ = 10 stage: 4.8 s -> 3.0 s CPU, the
-#: same iterates to 3 digits)
-#: mumps_mem_percent 100 (default 1000): MUMPS no longer maps ~10× its estimated workspace at
-#: every factorisation, which cost 20 % of the search direction in system time (same iterates)
-MUMPS = {"mumps_pivot_order": 0, "mumps_scaling": 0, "mumps_permuting_scaling": 0,
-         "mumps_mem_percent": 100}
 IPOPT_DEFAULTS = {
     "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
     # IPOPT's acceptable test also ends a stage whose objective has stopped moving
@@ -103,21 +94,6 @@ IPOPT_DEFAULTS = {
     # 2185 → 1625 in all (all satisfied with both; 18 took fewer, 5 more)
     "ipopt.bound_mult_init_method": "mu-based",
     **{f"ipopt.{k}": v for k, v in MUMPS.items()},
-}
-#: IPOPT's return statuses → the shared ``SolverStatus`` (every backend that runs IPOPT uses
-#: this map; the only user stop is the schedule's iteration limit, hence MAX_ITER)
-STATUS_MAP = {
-    "Solve_Succeeded": SolverStatus.OPTIMAL,
-    "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
-    "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
-    "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
-    "Restoration_Failed": SolverStatus.FAILED,
-    "Error_In_Step_Computation": SolverStatus.FAILED,
-    "Maximum_CpuTime_Exceeded": SolverStatus.MAX_TIME,
-    "Maximum_WallTime_Exceeded": SolverStatus.MAX_TIME,
-    "Search_Direction_Becomes_Too_Small": SolverStatus.STOPPED,  # no convergence test
-    "Invalid_Number_Detected": SolverStatus.FAILED,
-    "User_Requested_Stop": SolverStatus.MAX_ITER,
 }
 
 
@@ -291,8 +267,7 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     g = ca.vertcat(*g_list)
     obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg + fly
     opts = dict(IPOPT_DEFAULTS)
-    # developer knob: extra solver options as JSON, e.g. STLC_IPOPT='{"ipopt.print_level": 5}'
-    opts.update(json.loads(os.environ.get("STLC_IPOPT", "{}")))
+    opts.update(settings.ipopt_options())  # a developer's extra options (``STLC_IPOPT``)
     opts["ipopt.max_iter"] = int(problem.max_iter)
     root_fn = ca.Function("root", [w, p], [lowered.root])
     progress = Progress("progress", w.numel(), g.numel(), p.numel(), root_fn, quiet=quiet)
@@ -300,7 +275,7 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     nlp, derivs = derivatives.nlpsol_options(w, p, obj, g, layouts, grid.dt, integrator,
                                              substeps(grid.dt), n_dyn)
     opts.update(derivs)
-    solver = ca.nlpsol("stlc", "ipopt", nlp, opts)
+    solver = ipopt.solver("stlc", nlp, opts)
     prob = NlpProblem(solver, lbx, ubx, np.concatenate(lbg), np.concatenate(ubg), kappa_row,
                       n_dyn, w.numel(), g.numel(), root_fn, progress, lowered,
                       time.perf_counter() - t0)

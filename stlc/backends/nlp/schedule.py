@@ -32,7 +32,6 @@ stops there: the pipeline plans it again from its own MILP seed
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
@@ -70,17 +69,17 @@ MAX_LAM_STAGES = 4
 #: plan misses κ — solves the formula as written from it.  Fixed choices take the smooth
 #: max's negative curvature out of the Hessian: robustness stages of four handovers
 #: 61/56/113/89 → 65/27/32/47 iterations, with fewer regularised ones (~50 vs ~70 ms each)
-SEED_CHOICES = os.environ.get("STLC_SEED_CHOICES", "1") == "1"
+SEED_CHOICES = True
 #: a mission with an energy objective goes to the energy stage (paper A eq. 6) straight from
 #: the seed, with the seed's choices; the robustness schedule runs only if that plan misses
 #: κ.  On 14 handovers (3 shipped, 8 random, 3 unseen): all satisfied, NLP iterations median
 #: 65 → 32, energy equal or lower (−0.3 % median)
-ENERGY_FIRST = os.environ.get("STLC_ENERGY_FIRST", "1") == "1"
+ENERGY_FIRST = True
 #: an energy-first mission's robustness-only ``compare`` plans start from the seed's guess,
 #: not from the energy plan, so they are solved in a forked child (``apart``, one core)
 #: while the energy stage runs on the other, and recorded after it (the shipped handovers:
 #: 19–35 iterations, 1.5–3 s, off the critical path)
-COMPARE_APART = os.environ.get("STLC_COMPARE_APART", "1") == "1"
+COMPARE_APART = True
 
 
 def full_guess(program: model.Program, prob: NlpProblem, inv: InverseData,

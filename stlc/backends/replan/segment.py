@@ -53,6 +53,7 @@ from stlc.backends.nlp.model import STATUS_MAP, substeps
 from stlc.planning.kept import BODY_NODES, Clause, kept_clauses
 from stlc.planning.solution import Solution, Verdict
 from stlc.semantics import ir, model
+from stlc.solvers import ipopt
 from stlc.vehicles import dynamics
 
 #: λ of the smooth max/min inside a kept spec's body (on scaled planner margins)
@@ -148,7 +149,7 @@ class SegmentNlp:
         self.ng = gg.numel()
         opts = dict(IPOPT_OPTIONS)
         opts["ipopt.max_wall_time"] = float(budget)
-        self.solver = ca.nlpsol("replan", "ipopt", {"x": w, "p": p, "f": obj, "g": gg}, opts)
+        self.solver = ipopt.solver("replan", {"x": w, "p": p, "f": obj, "g": gg}, opts)
         self.lbx = np.concatenate([np.tile(b.x_lo, M), np.tile(b.u_lo, M)])
         self.ubx = np.concatenate([np.tile(b.x_hi, M), np.tile(b.u_hi, M)])
         self.n_vars = w.numel()
