@@ -1,5 +1,5 @@
 """An exact MILP that stops without a satisfying plan (its time limit, no incumbent) hands
-the mission to the general `nlp` chain (``pipeline._fallback``): a point-mass mission too
+the mission to the general `nlp` chain (``strategy._fallback``): a point-mass mission too
 large for the MILP's budget is still planned, the better verified plan is kept, and the
 record says what ran.  A forced `--backend milp` never falls back."""
 

@@ -9,6 +9,7 @@ import pytest
 
 from stlc import pipeline
 from stlc.analysis import monitor
+from stlc.backends import strategy
 from stlc.backends.milp import seed as milp_seed
 from stlc.backends.nlp import schedule
 from stlc.planning.problem import from_mission
@@ -188,7 +189,7 @@ def test_a_plan_that_misses_kappa_is_planned_again_from_other_seeds(tmp_path, mo
     program, mission = _problem(TRAP, tmp_path, "trap")
     _, sol = pipeline.plan(program, mission, backend="nlp")
     assert calls == [0, "kinematic", 1]  # the MILP seed, the local guess, one cut
-    assert len(sol.solver["chain"]["next_choices"]) == pipeline.NEXT_CHOICES
+    assert len(sol.solver["chain"]["next_choices"]) == strategy.NEXT_CHOICES
     assert sol.status == "violated"
 
 

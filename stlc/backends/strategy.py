@@ -1,4 +1,8 @@
-"""Choosing the backend chain of a problem from the registry, by capabilities.
+"""The planning strategy: which backend chain plans a problem, and what follows when its
+plan misses κ — further seeds, the fallback chain, the proof and explanation of
+infeasibility (``plan``; ``stlc.pipeline`` only orders the passes around it).
+
+Choosing the backend chain of a problem from the registry, by capabilities.
 
 ``CHAINS`` names the chains (each a tuple of registry names, seed first) in the order they
 are tried; the first chain whose every backend accepts the problem (``Backend.accepts``:
@@ -20,10 +24,13 @@ reports its STL401 diagnostics, as every chain does before any work.
 
 from __future__ import annotations
 
+import sys
+import time
 from dataclasses import dataclass
 
 from stlc.backends.registry import registry
 from stlc.diagnostics import Diagnostic, Span, StlcError, did_you_mean
+from stlc.planning.record import ChainRecord, ChainStage
 
 CHAINS: dict[str, tuple[str, ...]] = {
     "team": ("team-milp", "team-refine"),
@@ -96,18 +103,233 @@ def select(problem, forced: str | None = None, quiet: bool = True,
     return Chain(DEFAULT, _instances(DEFAULT, quiet))
 
 
-def chain_record(chain: Chain, sols: list) -> dict:
+def chain_record(chain: Chain, sols: list) -> ChainRecord:
     """What ``solution.json`` and the report say about the chain: its name, whether it was
     forced, and each stage's backend and status."""
     stages = []
     for b, s in zip(chain.backends, sols):
-        st = s.solver.get("return_status", s.solver.get("status", ""))
-        stage = {"backend": b.name, "status": str(st),
-                 "converged": bool(s.solver.get("converged", str(st) in
-                                                ("optimal", "acceptable")))}
-        if "seed" in s.solver:  # the MILP seed's record: grid, phases, time, ρ̂
-            stage["seed"] = s.solver["seed"]
-        stages.append(stage)
+        rec = s.solver
+        st = rec.return_status if rec.return_status is not None else (rec.status or "")
+        conv = rec.converged if rec.converged is not None else str(st) in ("optimal",
+                                                                             "acceptable")
+        stages.append(ChainStage(b.name, str(st), bool(conv), rec.get("seed")))
     for b in chain.backends[len(sols):]:  # after a proof of infeasibility
-        stages.append({"backend": b.name, "status": "not_run", "converged": False})
-    return {"name": chain.name, "forced": chain.forced, "stages": stages}
+        stages.append(ChainStage(b.name, "not_run", False))
+    return ChainRecord(chain.name, chain.forced, stages)
+
+
+# ---------------------------------------------------------------- the plan of a problem
+
+
+def plan(problem, chain: Chain, quiet: bool = True):
+    """Plan ``problem`` with ``chain`` and verify the plan (the exact monitor): the memory
+    budget checked first, then the chain; a plan that misses κ is planned again from other
+    seeds (``next_choices``), an unconverged exact chain falls back to the ``nlp`` chain,
+    and a mission no plan satisfied is proved infeasible and explained where it can be."""
+    from stlc import deadline
+
+    _check_budget(problem, chain.backends)
+    if not quiet:
+        print(f"{problem.mission.name}: chain `{chain.name}`"
+              f"{' (forced)' if chain.forced else ''}: "
+              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
+    sol = _run_verified(problem, chain)
+    sol = _next_choices(problem, chain, sol, quiet)
+    if _falls_back(chain, sol):
+        sol = _fallback(problem, sol, quiet)
+    if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
+        from stlc.backends.milp.conflict import explain_infeasible
+
+        explain_infeasible(problem, sol, quiet=quiet)
+    return sol
+
+
+def _team_comparisons(sols: list) -> None:
+    """A team plan is shown beside its seed ("MILP only", paper B Fig. 8), first; the
+    refinement already added the standard plan of a ``compare`` variant (Fig. 11)."""
+    from stlc.planning.solution import Comparison
+
+    seed, final = sols[0], sols[-1]
+    final.comparisons.insert(0, Comparison("MILP only", dict(seed.channels)))
+    final.timing.update({k: v for k, v in seed.timing.items() if k in ("milp_s", "seed_s")})
+    final.solver["seed"] = seed.solver.to_json()
+    final.notes.extend(seed.solver.notes())
+
+
+def _check_budget(problem, backends) -> None:
+    """Before building: refuse (STL606) a trajectory NLP that cannot fit the memory
+    budget (a chain with the CasADi NLP; the team chain plans on waypoints)."""
+    from stlc.planning.budget import check_nlp
+
+    if any(isinstance(b, registry()["casadi"]) for b in backends):
+        check_nlp(problem, problem.mission.span)
+
+
+def _run_verified(problem, chain):
+    """Run ``chain`` on ``problem`` and judge its plan with the exact monitor; a watchdog cut
+    (the run's time limit) gives the hover plan, judged the same way."""
+    from stlc import deadline
+    from stlc.backends.base import run_chain
+    from stlc.planning.fallback import fallback
+    from stlc.planning.verify import verify
+
+    try:
+        sol, sols = run_chain(problem, chain.backends)
+    except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
+        deadline.caught()
+        sol, sols = fallback(problem), []
+    if len(sols) > 1 and sols[0].routes:
+        _team_comparisons(sols)
+    sol.solver.chain = chain_record(chain, sols)
+    t0 = time.perf_counter()
+    verify(problem, sol)
+    sol.timing["verify_s"] = time.perf_counter() - t0
+    return sol
+
+
+NEXT_CHOICES = 2  #: further seeds tried when the NLP's plan from a MILP seed misses κ
+
+
+def _next_choices(problem, chain, sol, quiet: bool):
+    """The NLP planned from a MILP seed missed κ: plan again from other seeds — the local
+    kinematic guess (the seed of the `kinematic` chain: a class the MILP's coarse, relaxed
+    path did not choose), then the next-best discrete choice (the MILP seed with a no-good
+    cut on its choices for the conjuncts the plan violates) — at most ``NEXT_CHOICES`` and
+    within the time limit; the verified plan with the larger exact robustness is kept, and
+    the record lists every try.  Any seed backend with ``next_seed`` (and its
+    ``NEXT_LABEL``) takes part: a sweep's plan library gives this instance's own seed."""
+    from stlc import deadline
+
+    seed = chain.backends[0] if chain.backends else None
+    if sol.status in ("satisfied", "infeasible") or not hasattr(seed, "next_seed"):
+        return sol
+    others = []
+    if getattr(seed, "choices", None):  # the MILP chose the first path: the local guess
+        others.append(("the kinematic guess", registry()["kinematic"]()))  # another class
+    nxt = seed.next_seed(problem, sol.channels)
+    if nxt is not None:
+        others.append((seed.NEXT_LABEL, nxt))
+    first = solve_cost(sol)
+    tries = []
+    for label, other_seed in others[:NEXT_CHOICES]:
+        if sol.status == "satisfied" or deadline.solve_expired():
+            break
+        if not quiet:
+            print(f"{problem.mission.name}: exact robustness {sol.robustness_exact:+.4f} < κ; "
+                  f"planning again from {label}", file=sys.stderr)
+        other = _run_verified(problem, Chain(chain.name, [other_seed, *chain.backends[1:]],
+                                             chain.forced))
+        tries.append({"seed": label, "exact": other.robustness_exact,
+                      "status": str(other.status), **solve_cost(other)})
+        a, b = sol.robustness_exact, other.robustness_exact
+        if _better(b, a):
+            other.notes.append(f"planned from {label}: the plan from the {seed.name} had "
+                               f"exact robustness {a:.6g}")
+            sol = other
+    if tries:
+        sol.solver.chain.next_choices = tries
+        sol.solver.chain.first_try = first  # what the first seed's plan cost
+    return sol
+
+
+def solve_cost(sol) -> dict:
+    """What planning ``sol`` cost: its IPOPT iterations and solve seconds."""
+    return {"iterations": int(sol.solver.iterations or 0),
+            "solve_s": float(sol.timing.get("solve_s", 0.0))}
+
+
+def _better(b: float, a: float) -> bool:
+    """Exact robustness ``b`` strictly beats ``a`` (NaN-safe: a NaN never wins, anything
+    beats a NaN)."""
+    return b == b and not (a == a and a >= b)
+
+
+def _falls_back(chain, sol) -> bool:
+    """An exact chain chosen by capability that stopped without a satisfying plan and
+    without a proof of its optimum (a time limit, no incumbent) hands the problem to the
+    general chain: a point-mass mission too large for the MILP's budget is still planned
+    (locally) as before the exact backend existed.  Not once the run's time limit is out."""
+    from stlc import deadline
+
+    return (chain.name == "milp" and not chain.forced and sol.status != "satisfied"
+            and not sol.solver.converged and not deadline.solve_expired())
+
+
+def _fallback(problem, first, quiet: bool):
+    """Plan ``problem`` with the ``nlp`` chain after an unconverged exact chain; keep the
+    verified plan with the larger exact robustness (ties: the exact chain's).  Both plans
+    are judged by the exact monitor; the record says what ran."""
+    chain = select(problem, "nlp", quiet)
+    stopped = first.solver.return_status
+    if not quiet:
+        print(f"{problem.mission.name}: the exact MILP stopped without a satisfying plan "
+              f"({stopped}); falling back to chain `nlp`: "
+              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
+    sol = _run_verified(problem, chain)
+    sol.solver.chain.fallback_from = first.solver.chain
+    a, b = first.robustness_exact, sol.robustness_exact
+    if _better(b, a):  # the NLP's plan is strictly better
+        sol.notes.append(f"the exact MILP stopped without a satisfying plan "
+                         f"({stopped}); this plan is the `nlp` "
+                         f"chain's (local, not a global optimum)")
+        return sol
+    first.notes.append("the `nlp` chain, tried after the MILP stopped, found no better plan "
+                       f"(exact robustness {b:.6g})")
+    return first
+
+
+# ------------------------------------------------- what the orderers ask of the planners
+
+
+def replanner(kind: str):
+    """The planner the simulation hands each replanning event: ``"segment"`` (the
+    segment NLP's class, built once per vehicle), ``"takeover"`` (the backup drone's
+    planner) or ``"move"`` (the operator move's replan of the rest of the mission)."""
+    if kind == "move":
+        from stlc.backends.replan.move import replan_rest
+
+        return replan_rest
+    if kind == "takeover":
+        return registry()["takeover"]()
+    return registry()[kind]
+
+
+def warm_startable(chain: list) -> bool:
+    """Does the chain end with the trajectory NLP, which a plan library can warm start?"""
+    return bool(chain) and isinstance(chain[-1], registry()["casadi"])
+
+
+def library_chain(chain: list, near) -> list:
+    """The chain seeded from a library's plan ``near`` (values, label, channels ...)
+    instead of its own seed, which stays the fallback."""
+    from stlc.backends.nlp.library import LibrarySeed
+
+    return [LibrarySeed(*near, own=chain[0]), chain[-1]]
+
+
+def plan_library():
+    """A new, empty plan library (warm starts from the nearest solved instance)."""
+    from stlc.backends.nlp.library import PlanLibrary
+
+    return PlanLibrary()
+
+
+def structure_key(problem) -> str:
+    """What a built NLP depends on, except the values an instance sets."""
+    from stlc.backends.nlp.cache import structure_key as key
+
+    return key(problem)
+
+
+def nlp_builds() -> int:
+    """NLPs this process has built (a reused one is not counted)."""
+    from stlc.backends.nlp import cache
+
+    return int(cache.STATS["builds"])
+
+
+def team_plan(sol):
+    """A team solution's plan (routes, dwells, waypoints) for its per-drone writers."""
+    from stlc.backends.team.backend import solution_plan
+
+    return solution_plan(sol)

@@ -43,10 +43,10 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
         if sol.routes:
-            from stlc.backends.team.backend import solution_plan
+            from stlc.backends.strategy import team_plan
             from stlc.team.refine import per_drone_csv
 
-            for drone, text in per_drone_csv(solution_plan(sol)).items():
+            for drone, text in per_drone_csv(team_plan(sol)).items():
                 with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
                     fh.write(text)
         if sol.risk is not None:

@@ -91,7 +91,7 @@ def _client(workers: int | None, scheduler: str | None, path: str):
     with dask.config.set(WORKER_CONFIG):
         cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True,
                                dashboard_address=":0", silence_logs=logging.ERROR,
-                               env={"OMP_NUM_THREADS": "1", "STLC_NO_FORK": "1",
+                               env={"OMP_NUM_THREADS": "1",
                                     "STLC_MAP_THREADS": share})
     return Client(cluster), cluster
 

@@ -35,7 +35,7 @@ from stlc.planning.problem import PlanningProblem
 from stlc.semantics import ir
 
 TIME_LIMIT_S = 60.0  #: default wall-time limit of one MILP solve (a mission may set its own); an
-#: unconverged unforced solve then falls back to the `nlp` chain (``pipeline._fallback``)
+#: unconverged unforced solve then falls back to the `nlp` chain (``strategy._fallback``)
 
 KAPPA_MARGIN = 1e-6  #: the feasibility phase asks ρ̂ ≥ κ + this
 #: past this many binaries the default limit is LARGE_LIMIT_S: the 60 s patrol at 0.2 s (≈ 12k

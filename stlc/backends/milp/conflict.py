@@ -91,7 +91,7 @@ def relaxed_vehicle(problem):
     return lins
 
 
-def _kept_channels(problem) -> set[str]:
+def kept_channels(problem) -> set[str]:
     out = set(problem.fixed_channels)
     for v in problem.vehicles():
         vm = vehicles.model_of(v)
@@ -100,7 +100,7 @@ def _kept_channels(problem) -> set[str]:
     return out
 
 
-def _drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
+def drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
     """``f`` with every predicate that is not affine (a distance, a norm) made to read a
     signal no relaxation keeps, so that ``restrict`` replaces it by ``true`` (sound: the
     formula is in NNF)."""
@@ -116,7 +116,7 @@ def _drop_nonlinear(f: ir.Formula, params, memo: dict) -> ir.Formula:
         except (NotLinear, ValueError):
             out = ir.Pred(ir.Sig("__nonlinear"), f.label, f.span)
     else:
-        out = ir.map_children(f, lambda g: _drop_nonlinear(g, params, memo))
+        out = ir.map_children(f, lambda g: drop_nonlinear(g, params, memo))
     memo[id(f)] = (f, out)
     return out
 
@@ -187,12 +187,12 @@ def prove_infeasible(problem) -> Proof | None:
     lins = None if exact else relaxed_vehicle(problem)
     if lins is None and not exact:
         return None
-    keep = _kept_channels(problem)
+    keep = kept_channels(problem)
     if exact:
         from stlc.backends.milp.backend import planned_channels
 
         keep |= planned_channels(problem)
-    restrict = lambda f: ir.restrict(_drop_nonlinear(f, problem.params, {}),  # noqa: E731
+    restrict = lambda f: ir.restrict(drop_nonlinear(f, problem.params, {}),  # noqa: E731
                                      lambda s: s in keep)
     req = restrict(problem.requirement)
     size = sum(1 for _ in ir.nodes(problem.requirement))

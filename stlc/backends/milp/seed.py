@@ -79,11 +79,11 @@ def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
     other predicate is ``true``); with ``clearance`` > 0 every face of a region the formula
     keeps the vehicle *out of* (a negated box face: ``not in``, the left side of
     ``implies``) is pushed out by that much (``e ≥ 0`` becomes ``e − clearance ≥ 0``)."""
-    from stlc.backends.milp.conflict import _drop_nonlinear, _kept_channels
+    from stlc.backends.milp.conflict import drop_nonlinear, kept_channels
 
-    keep = _kept_channels(problem)  # positions, velocities and fixed channels
+    keep = kept_channels(problem)  # positions, velocities and fixed channels
     inner = inner_norms(problem.requirement, problem.params)  # speed limits: inner boxes
-    f = ir.restrict(_drop_nonlinear(inner, problem.params, {}), lambda s: s in keep)
+    f = ir.restrict(drop_nonlinear(inner, problem.params, {}), lambda s: s in keep)
     if clearance <= 0:
         return f
 

@@ -1,7 +1,7 @@
 """Conservative polyhedral inner approximations of norm bounds, for the MILP seed.
 
 The seed's MILP keeps only affine predicates; every other one becomes ``true``
-(``milp_conflict._drop_nonlinear``), so a speed limit such as ``q1.speed <= 0.4 m/s`` —
+(``conflict.drop_nonlinear``), so a speed limit such as ``q1.speed <= 0.4 m/s`` —
 ``0.4 − sqrt(vx² + vy² + vz²) ≥ 0`` — was not in it at all: on random handovers the seed
 path flew through the slow phase at up to 1.3 m/s over the limit, and the kinematic
 smoothing did not always bring it back (its exact robustness below 0 on 3 of 4 such seeds,

@@ -35,7 +35,7 @@ import numpy as np
 
 from stlc import vehicles
 from stlc.backends.base import Backend, SolverStatus
-from stlc.backends.nlp.backend import _pad
+from stlc.backends.nlp.backend import pad
 from stlc.backends.milp.backend import HIGHS_STATUS_MAP, ExactMilp
 from stlc.backends.milp.seed import MAX_SAMPLES, plan, seed_factor
 from stlc.planning.problem import PlanningProblem
@@ -92,7 +92,7 @@ class CoarseStart(Backend):
             P, V, A = paths[v.name]
             X, U = vm.guess(v, P, V, A, dt)
             ch.update({c: X[i] for i, c in enumerate(vm.state_channels(v))})
-            ch.update({c: _pad(U, n)[j] for j, c in enumerate(vm.input_channels(v))})
+            ch.update({c: pad(U, n)[j] for j, c in enumerate(vm.input_channels(v))})
         ok = bool(ch)
         status = rec.get("status")
         return Solution(mission=problem.mission.name, status=Verdict.VIOLATED,

@@ -32,7 +32,7 @@ from stlc.planning.problem import PlanningProblem
 IPOPT_STATUS_MAP = STATUS_MAP  # IPOPT's codes → SolverStatus, for every backend running IPOPT
 
 
-def _pad(a: np.ndarray, n: int) -> np.ndarray:
+def pad(a: np.ndarray, n: int) -> np.ndarray:
     """Inputs live on the n − 1 intervals; as channels they repeat the last one."""
     return a if a.shape[-1] == n else np.concatenate([a, a[..., -1:]], axis=-1)
 
@@ -78,7 +78,7 @@ class KinematicGuess(Backend):
             for i, a in enumerate("xyz"):
                 ch[f"{name}.pos.{a}"] = P[i]
                 ch[f"{name}.vel.{a}"] = V[i]
-                ch[f"{name}.acc.{a}"] = _pad(A, n)[i]
+                ch[f"{name}.acc.{a}"] = pad(A, n)[i]
         return Solution(mission=problem.mission.name, status=Verdict.VIOLATED,
                         robustness_exact=float("nan"), robustness_smooth=float("nan"),
                         specs={}, energy=0.0, times=problem.grid.times(), channels=ch,

@@ -90,7 +90,7 @@ class LibrarySeed(Backend):
         """The seed this instance's own chain starts from (``own``: the MILP seed of the
         ``nlp`` chain): a neighbour's plan whose energy stage missed κ is in the class the
         MILP chose for *another* instance, so this one is planned as its compile would be
-        (``pipeline._next_choices`` keeps the better verified plan)."""
+        (``strategy._next_choices`` keeps the better verified plan)."""
         return self.own
 
     def invert(self, raw, inverse, problem) -> Solution:

@@ -70,18 +70,18 @@ from stlc.backends.nlp.expr import (
     max_alg,
 )
 from stlc.backends.nlp.windows import (
-    _LAM,
-    _PARAM,
+    LAM,
+    PARAM,
     LoweredRobustness,
-    _assemble,
-    _bits_desc,
-    _check_window,
-    _child_needs,
-    _const,
-    _fan_in,
-    _Row,
-    _Val,
-    _windows,
+    assemble,
+    bits_desc,
+    check_window,
+    child_needs,
+    const_value,
+    fan_in,
+    Row,
+    Val,
+    sample_windows,
 )
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
@@ -103,7 +103,7 @@ class _Lowerer:
         self.mode, self.dyadic, self.lift_span = mode, dyadic, lift_span
         self.hypograph = hypograph
         self.min_alg, self.max_alg = MinAlg(), max_alg(env.method)
-        self.rows: dict[ir.Formula, _Row] = {}
+        self.rows: dict[ir.Formula, Row] = {}
         self.aux: list[ca.SX] = []
         self.init: list[ca.SX] = []
         self.g: list[ca.SX] = []
@@ -114,13 +114,13 @@ class _Lowerer:
 
     # ---- smooth ops and lifting
 
-    def combine(self, alg: Alg, vals: list[_Val]) -> _Val:
+    def combine(self, alg: Alg, vals: list[Val]) -> Val:
         if len(vals) == 1:
             return vals[0]
         self.operands += len(vals) * vals[0].size
-        return _Val(alg.combine([v.comps for v in vals], self.lam), sum(v.span for v in vals))
+        return Val(alg.combine([v.comps for v in vals], self.lam), sum(v.span for v in vals))
 
-    def lift(self, v: _Val, kinds: tuple[str, ...], mono: bool | None = None) -> _Val:
+    def lift(self, v: Val, kinds: tuple[str, ...], mono: bool | None = None) -> Val:
         """Replace a wide value by aux variables.  ``"ineq"`` components get the hypograph
         constraint only if the path to the root is monotone (``mono``, default: that of the
         node being lowered); otherwise, and for ``"eq"`` components, an equality."""
@@ -129,7 +129,7 @@ class _Lowerer:
         if self.mode == "shadow":
             self.init.extend(c.T for c in v.comps)
             self._last_lift = (v.comps, v.comps, [self.init] * len(v.comps))
-            return _Val(v.comps, 1)
+            return Val(v.comps, 1)
         syms, lists = [], []
         for c, kind in zip(v.comps, kinds):
             r = ca.SX.sym(f"r{len(self.aux)}", 1, c.numel())
@@ -139,19 +139,19 @@ class _Lowerer:
             lists[-1].append((c - r).T)
             syms.append(r)
         self._last_lift = (tuple(syms), v.comps, [self.aux] + lists)
-        return _Val(tuple(syms), 1)
+        return Val(tuple(syms), 1)
 
-    def finish(self, alg: Alg, v: _Val, mono: bool | None = None) -> _Val:
+    def finish(self, alg: Alg, v: Val, mono: bool | None = None) -> Val:
         """The plain value of a block, lifted if it is wide."""
-        return self.lift(_Val((alg.value(v.comps),), v.span), ("ineq",), mono)
+        return self.lift(Val((alg.value(v.comps),), v.span), ("ineq",), mono)
 
-    def reduce(self, alg: Alg, vals: list[_Val]) -> _Val:
+    def reduce(self, alg: Alg, vals: list[Val]) -> Val:
         """Plain smooth op of plain rows."""
         return self.finish(alg, self.combine(alg, [self.leaf(alg, v) for v in vals]))
 
     @staticmethod
-    def leaf(alg: Alg, v: _Val) -> _Val:
-        return _Val(alg.leaf(v.comps[0]), v.span)
+    def leaf(alg: Alg, v: Val) -> Val:
+        return Val(alg.leaf(v.comps[0]), v.span)
 
     # ---- driver
 
@@ -176,7 +176,7 @@ class _Lowerer:
             need[node] = k
             if len(k):
                 edge = mono[node] and self.edge_monotone(node)
-                for child, ks in _child_needs(node, k, self.grid):
+                for child, ks in child_needs(node, k, self.grid):
                     needs.setdefault(child, []).append(ks)
                     mono[child] = mono.get(child, True) and edge
         for node in order:  # children before parents
@@ -184,12 +184,12 @@ class _Lowerer:
             if len(k):
                 self.mono = mono[node]
                 if self.lam_scaling:
-                    self.lam = self.base_lam * (1.0 + np.log(_fan_in(node, self.grid)))
+                    self.lam = self.base_lam * (1.0 + np.log(fan_in(node, self.grid)))
                 fn = LOWER.get(type(node))
                 if fn is None:
                     raise LoweringError(f"{type(node).__name__} is not an NNF node; "
                                         "run nnf.normalize first")
-                self.rows[node] = _Row(k, fn(self, node, k))
+                self.rows[node] = Row(k, fn(self, node, k))
         root = self.rows[f].val.comps[0]
         last = self._last_lift
         if last is not None and len(last[0]) == 1 and last[0][0] is root:
@@ -209,11 +209,11 @@ class _Lowerer:
 
     # ---- windows
 
-    def window(self, alg: Alg, child: ir.Formula, k: np.ndarray, a: int, b: int) -> _Val:
-        first, last = _windows(k, a, b, self.n)
+    def window(self, alg: Alg, child: ir.Formula, k: np.ndarray, a: int, b: int) -> Val:
+        first, last = sample_windows(k, a, b, self.n)
         length = last - first + 1
         empty = np.flatnonzero(length <= 0)
-        pieces = [(empty, _const(alg.empty, len(empty)))]
+        pieces = [(empty, const_value(alg.empty, len(empty)))]
         if len(empty) == len(k):
             return pieces[0][1]
         row = self.rows[child]
@@ -224,22 +224,22 @@ class _Lowerer:
             starts = first[pos]
             if m in wide:
                 parts, off = [], 0
-                for j in _bits_desc(m):
+                for j in bits_desc(m):
                     st, blk = levels[j]
                     parts.append(blk.take(np.searchsorted(st, starts + off)))
                     off += 1 << j
             else:
                 parts = [self.leaf(alg, row.at(starts + j)) for j in range(m)]
             pieces.append((pos, self.finish(alg, self.combine(alg, parts))))
-        return _assemble(pieces)
+        return assemble(pieces)
 
-    def levels(self, alg: Alg, row: _Row, wide: dict[int, np.ndarray]
-               ) -> dict[int, tuple[np.ndarray, _Val]]:
+    def levels(self, alg: Alg, row: Row, wide: dict[int, np.ndarray]
+               ) -> dict[int, tuple[np.ndarray, Val]]:
         """Dyadic blocks (starts, block row) per level j, for every start a window needs."""
         want: dict[int, list[np.ndarray]] = {}
         for m, starts in wide.items():
             off = 0
-            for j in _bits_desc(m):
+            for j in bits_desc(m):
                 want.setdefault(j, []).append(starts + off)
                 off += 1 << j
         top = max(want)
@@ -259,7 +259,7 @@ class _Lowerer:
         return out
 
     def until_like(self, f: ir.Until | ir.Release, k: np.ndarray,
-                   inner: Alg, outer: Alg) -> _Val:
+                   inner: Alg, outer: Alg) -> Val:
         """``max_{k'} min(g(k'), f(k..k'))`` (until) or its dual (release) as two chains
         over the offset d = k' - k, vectorised over k.  The last offset of sample k,
         min(b, n-1-k), is nonincreasing in k, so the samples still active at offset d are a
@@ -267,9 +267,9 @@ class _Lowerer:
         a, b = self.grid.window(f.lo, f.hi)
         left, right = self.rows.get(f.left), self.rows.get(f.right)
         reach = np.minimum(b, self.n - 1 - k)  # last offset per sample, nonincreasing
-        pieces: list[tuple[np.ndarray, _Val]] = []
+        pieces: list[tuple[np.ndarray, Val]] = []
         no_window = np.flatnonzero(reach < a)
-        pieces.append((no_window, _const(outer.empty, len(no_window))))
+        pieces.append((no_window, const_value(outer.empty, len(no_window))))
         prefix = acc = None
         active = len(k)
         mono = self.mono and outer.monotone  # prefix and inner values are outer operands
@@ -292,50 +292,50 @@ class _Lowerer:
                 self.combine(outer, [acc.take(np.arange(m)), op]), outer.kinds)
         if acc is not None:
             pieces.append((np.arange(active), self.finish(outer, acc)))
-        return _assemble(pieces)
+        return assemble(pieces)
 
 
 # --------------------------------------------------------------------------- dispatch
 
 
-def _pred(lw: _Lowerer, f: ir.Pred, k: np.ndarray) -> _Val:
+def _pred(lw: _Lowerer, f: ir.Pred, k: np.ndarray) -> Val:
     v = lower_expr(f.expr, lw.env)
     if not isinstance(v, ca.SX) or v.numel() == 1:
-        return _Val((ca.repmat(ca.SX(v), 1, len(k)),), 1)
-    return _Val((v,), 1).take(k)
+        return Val((ca.repmat(ca.SX(v), 1, len(k)),), 1)
+    return Val((v,), 1).take(k)
 
 
-def _always(lw: _Lowerer, f: ir.Always, k: np.ndarray) -> _Val:
-    return lw.window(lw.min_alg, f.arg, k, *_check_window(f, lw.grid))
+def _always(lw: _Lowerer, f: ir.Always, k: np.ndarray) -> Val:
+    return lw.window(lw.min_alg, f.arg, k, *check_window(f, lw.grid))
 
 
-def _eventually(lw: _Lowerer, f: ir.Eventually, k: np.ndarray) -> _Val:
-    return lw.window(lw.max_alg, f.arg, k, *_check_window(f, lw.grid))
+def _eventually(lw: _Lowerer, f: ir.Eventually, k: np.ndarray) -> Val:
+    return lw.window(lw.max_alg, f.arg, k, *check_window(f, lw.grid))
 
 
-def _next(lw: _Lowerer, f: ir.Next, k: np.ndarray) -> _Val:
+def _next(lw: _Lowerer, f: ir.Next, k: np.ndarray) -> Val:
     inside = k + 1 < lw.n
     pos_in, pos_out = np.flatnonzero(inside), np.flatnonzero(~inside)
-    pieces = [(pos_out, _const(-BIG, len(pos_out)))]
+    pieces = [(pos_out, const_value(-BIG, len(pos_out)))]
     if len(pos_in):
         pieces.append((pos_in, lw.rows[f.arg].at(k[inside] + 1)))
-    return _assemble(pieces)
+    return assemble(pieces)
 
 
-def _until(lw: _Lowerer, f: ir.Until, k: np.ndarray) -> _Val:
-    _check_window(f, lw.grid)
+def _until(lw: _Lowerer, f: ir.Until, k: np.ndarray) -> Val:
+    check_window(f, lw.grid)
     return lw.until_like(f, k, lw.min_alg, lw.max_alg)
 
 
-def _release(lw: _Lowerer, f: ir.Release, k: np.ndarray) -> _Val:
-    _check_window(f, lw.grid)
+def _release(lw: _Lowerer, f: ir.Release, k: np.ndarray) -> Val:
+    check_window(f, lw.grid)
     return lw.until_like(f, k, lw.max_alg, lw.min_alg)
 
 
-LOWER: dict[type, Callable[[_Lowerer, ir.Formula, np.ndarray], _Val]] = {
+LOWER: dict[type, Callable[[_Lowerer, ir.Formula, np.ndarray], Val]] = {
     ir.Pred: _pred,
-    ir.TrueF: lambda lw, f, k: _const(BIG, len(k)),
-    ir.FalseF: lambda lw, f, k: _const(-BIG, len(k)),
+    ir.TrueF: lambda lw, f, k: const_value(BIG, len(k)),
+    ir.FalseF: lambda lw, f, k: const_value(-BIG, len(k)),
     ir.And: lambda lw, f, k: lw.reduce(lw.min_alg, [lw.rows[c].at(k) for c in f.args]),
     ir.Or: lambda lw, f, k: lw.reduce(lw.max_alg, [lw.rows[c].at(k) for c in f.args]),
     ir.Always: _always,
@@ -383,10 +383,10 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
     ph_par = {p: ca.SX.sym(p) if _is_symbolic(params[p]) else params[p] for p in pars}
     ph_lam = ca.SX.sym("lam") if _is_symbolic(lam) else lam
     inputs = [ph_ch[s] for s in sigs] + [ph_par[p] for p in pars if _is_symbolic(params[p])]
-    names = sigs + [_PARAM + p for p in pars if _is_symbolic(params[p])]
+    names = sigs + [PARAM + p for p in pars if _is_symbolic(params[p])]
     if _is_symbolic(lam):
         inputs.append(ph_lam)
-        names.append(_LAM)
+        names.append(LAM)
 
     shadow = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "shadow" if lift else "none",
                       dyadic, lift_span, lam_scaling=lam_scaling)

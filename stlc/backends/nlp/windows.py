@@ -2,11 +2,11 @@
 and windows.
 
 ``LoweredRobustness`` is what ``lower_robustness`` returns (root, aux, constraints, init).
-A node's values are block rows (``_Val``: SX components, span, length) at sorted sample
-indices (``_Row``); ``_assemble`` scatters pieces back into one row.  The window helpers map
+A node's values are block rows (``Val``: SX components, span, length) at sorted sample
+indices (``Row``); ``assemble`` scatters pieces back into one row.  The window helpers map
 the samples a node is needed at onto the samples its children are needed at
-(``_child_needs``: ``always[0,17]`` at {0} needs its child at 0..170), give the dyadic blocks
-of a window length (``_bits_desc``) and the fan-in of an operator (``_fan_in``).
+(``child_needs``: ``always[0,17]`` at {0} needs its child at 0..170), give the dyadic blocks
+of a window length (``bits_desc``) and the fan-in of an operator (``fan_in``).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from stlc.backends.nlp.expr import LoweringError
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
 
-_PARAM, _LAM = "param:", ":lam"  # input names of ``LoweredRobustness.init``
+PARAM, LAM = "param:", ":lam"  # input names of ``LoweredRobustness.init``
 
 
 @dataclass
@@ -52,10 +52,10 @@ class LoweredRobustness:
         """Numeric aux initial values and the un-lifted smooth root for numeric inputs."""
         args: dict[str, object] = {}
         for name in self.init.name_in():
-            if name == _LAM:
+            if name == LAM:
                 args[name] = lam
-            elif name.startswith(_PARAM):
-                args[name] = (params or {})[name[len(_PARAM):]]
+            elif name.startswith(PARAM):
+                args[name] = (params or {})[name[len(PARAM):]]
             else:
                 args[name] = np.reshape(np.asarray(channels[name], float), (1, -1))
         out = self.init(**args)
@@ -63,7 +63,7 @@ class LoweredRobustness:
 
 
 @dataclass
-class _Val:
+class Val:
     """A block row: components (1×L SX rows), its span, and its length."""
 
     comps: tuple[ca.SX, ...]
@@ -73,29 +73,29 @@ class _Val:
     def size(self) -> int:
         return self.comps[0].numel()
 
-    def take(self, pos: np.ndarray) -> _Val:
+    def take(self, pos: np.ndarray) -> Val:
         if len(pos) == self.size and (len(pos) == 0 or (pos == np.arange(len(pos))).all()):
             return self
         sel = pos.tolist()
-        return _Val(tuple(c[0, sel] for c in self.comps), self.span)
+        return Val(tuple(c[0, sel] for c in self.comps), self.span)
 
 
 @dataclass
-class _Row:
+class Row:
     """A node's values at the sorted sample indices ``idx``."""
 
     idx: np.ndarray
-    val: _Val
+    val: Val
 
-    def at(self, samples: np.ndarray) -> _Val:
+    def at(self, samples: np.ndarray) -> Val:
         return self.val.take(np.searchsorted(self.idx, samples))
 
 
-def _const(v: float, size: int) -> _Val:
-    return _Val((ca.SX(np.full((1, size), v)),), 0)
+def const_value(v: float, size: int) -> Val:
+    return Val((ca.SX(np.full((1, size), v)),), 0)
 
 
-def _assemble(pieces: list[tuple[np.ndarray, _Val]]) -> _Val:
+def assemble(pieces: list[tuple[np.ndarray, Val]]) -> Val:
     """Scatter (positions, plain row) pieces back into one row ordered by position."""
     pieces = [(p, v) for p, v in pieces if len(p)]
     if len(pieces) == 1:
@@ -103,14 +103,14 @@ def _assemble(pieces: list[tuple[np.ndarray, _Val]]) -> _Val:
     pos = np.concatenate([p for p, _ in pieces])
     row = ca.horzcat(*[v.comps[0] for _, v in pieces])
     span = max(v.span for _, v in pieces)
-    return _Val((row,), span).take(np.argsort(pos, kind="stable"))
+    return Val((row,), span).take(np.argsort(pos, kind="stable"))
 
 
-def _bits_desc(length: int) -> list[int]:
+def bits_desc(length: int) -> list[int]:
     return [j for j in range(length.bit_length() - 1, -1, -1) if length >> j & 1]
 
 
-def _windows(samples: np.ndarray, a: int, b: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+def sample_windows(samples: np.ndarray, a: int, b: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """First and last sample of each window (clipped to the grid; empty if first > last)."""
     return samples + a, np.minimum(samples + b, n - 1)
 
@@ -131,14 +131,14 @@ def _union(first: np.ndarray, last: np.ndarray) -> np.ndarray:
     return np.concatenate(out).astype(np.int64)
 
 
-def _check_window(f: ir.Formula, grid: TimeGrid) -> tuple[int, int]:
+def check_window(f: ir.Formula, grid: TimeGrid) -> tuple[int, int]:
     a, b = grid.window(f.lo, f.hi)
     if a < 0:
         raise LoweringError(f"negative window start in {type(f).__name__}[{f.lo}, {f.hi}]")
     return a, b
 
 
-def _child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
+def child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
                  ) -> list[tuple[ir.Formula, np.ndarray]]:
     """Which samples of each child the node needs to be evaluated at samples ``k``."""
     n = grid.n
@@ -147,10 +147,10 @@ def _child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
             return [(c, k) for c in args]
         case ir.Always(lo, hi, c) | ir.Eventually(lo, hi, c):
             a, b = grid.window(lo, hi)
-            return [(c, _union(*_windows(k, a, b, n)))]
+            return [(c, _union(*sample_windows(k, a, b, n)))]
         case ir.Until(lo, hi, left, right) | ir.Release(lo, hi, left, right):
             a, b = grid.window(lo, hi)
-            first, last = _windows(k, a, b, n)
+            first, last = sample_windows(k, a, b, n)
             return [(left, _union(k, last)), (right, _union(first, last))]
         case ir.Next(c):
             return [(c, k[k + 1 < n] + 1)]
@@ -159,7 +159,7 @@ def _child_needs(f: ir.Formula, k: np.ndarray, grid: TimeGrid
     raise LoweringError(f"not a formula node in negation normal form: {type(f).__name__}")
 
 
-def _fan_in(f: ir.Formula, grid: TimeGrid) -> int:
+def fan_in(f: ir.Formula, grid: TimeGrid) -> int:
     """Operands of one smooth op of ``f`` (and/or: its arguments; a temporal operator: its
     whole window, unclipped), ≥ 1."""
     if isinstance(f, ir.And | ir.Or):

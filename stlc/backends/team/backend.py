@@ -28,6 +28,7 @@ from stlc.backends.nlp.backend import IPOPT_STATUS_MAP
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.planning.solution import Comparison, Solution, Verdict
 from stlc.planning.bounds import stated_bounds
+from stlc.planning.record import Assignment
 from stlc.planning.problem import PlanningProblem
 from stlc.semantics.specs import reads_payload
 
@@ -154,7 +155,7 @@ class MilpSeed(Backend):
             solver={"name": self.name,
                     "status": str(SolverStatus.OPTIMAL if stats.method == "milp"
                                   else SolverStatus.MAX_TIME),
-                    "assignment": stats.method,
+                    "assignment": Assignment(stats.method, stats.incumbent),
                     "milp_rounds": stats.rounds, "lazy_cuts": stats.cuts,
                     "objective_s": stats.objective, "milp_cpu_s": stats.cpu_s,
                     **({"incumbent": stats.incumbent, "lower_bound_s": stats.bound,

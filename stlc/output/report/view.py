@@ -151,7 +151,7 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
               if k in sol.timing]
     solver_extra = [{"name": str(k), "text": str(v)} for k, v in sol.solver.items()
                     if k not in ("name", "iterations", "return_status", "stages", "chain")]
-    chain = sol.solver.get("chain") or {}
+    chain = sol.solver.chain.to_json() if sol.solver.chain is not None else {}
     chain_text = (f"{chain.get('name', '?')}{' (forced)' if chain.get('forced') else ''}: "
                   + " → ".join(f"{st['backend']} ({st['status']})"
                                for st in chain.get("stages", []))) if chain else "—"
@@ -179,9 +179,9 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "timing": timing,
         "solve_text": fmt(sol.timing.get("solve_s"), 3, unit="s"),
         "total_text": fmt(sol.timing.get("total_s"), 3, unit="s"),
-        "solver_name": str(sol.solver.get("name", "—")),
-        "iterations": str(sol.solver.get("iterations", "—")),
-        "return_status": str(sol.solver.get("return_status", "—")),
+        "solver_name": str(sol.solver.name or "—"),
+        "iterations": str(_or_dash(sol.solver.iterations)),
+        "return_status": str(_or_dash(sol.solver.return_status)),
         "solver_extra": solver_extra,
         "chain_text": chain_text,
         "smoothing_method": str(smoothing.get("method", "—")),
@@ -360,3 +360,7 @@ def build_view(program: Program, mission: Mission, solution: Solution,
                      risk_samples),
         "source": _source(program, mission, solution, rows),
     }
+
+
+def _or_dash(value):
+    return "—" if value is None else value
