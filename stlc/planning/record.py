@@ -4,7 +4,7 @@
 ``name``, ``status`` (the shared ``SolverStatus``), its own ``return_status``, ``converged``,
 ``iterations``, the NLP's ``stages``, the backend ``chain`` (``ChainRecord``: its stages,
 the further seeds tried, the chain it fell back from), the ``stopped_by`` reason
-(``StopReason``) and a team plan's ``assignment`` (``Assignment``: how its routes were
+(``StopReason``) and its ``time_limit_s`` and a team plan's ``assignment`` (``Assignment``: how its routes were
 found) — and every backend-specific figure (objective, bound, gap, phases, the MILP seed's
 record, ...) in ``details``.  ``to_json`` writes the ``"solver"`` object of
 ``solution.json`` with the keys in the order they were recorded, as the contract has them.
@@ -100,7 +100,7 @@ class ChainRecord:
 
 #: the typed fields; every other key is a backend's detail
 _TYPED = ("name", "status", "return_status", "converged", "iterations", "stages", "chain",
-          "stopped_by", "assignment")
+          "stopped_by", "time_limit_s", "assignment")
 
 
 @dataclass
@@ -113,6 +113,7 @@ class SolveRecord(MutableMapping):
     stages: list | None = None  # the NLP's stages, in order
     chain: ChainRecord | None = None
     stopped_by: StopReason | None = None
+    time_limit_s: float | None = None  # the limit that stopped it (``stopped_by``)
     assignment: Assignment | None = None
     details: dict[str, Any] = field(default_factory=dict)
     _order: list[str] = field(default_factory=list, repr=False, compare=False)

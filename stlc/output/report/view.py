@@ -155,7 +155,7 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
     chain_text = (f"{chain.get('name', '?')}{' (forced)' if chain.get('forced') else ''}: "
                   + " → ".join(f"{st['backend']} ({st['status']})"
                                for st in chain.get("stages", []))) if chain else "—"
-    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.get("stages") or []
+    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.stages or []
               if isinstance(s, dict) or hasattr(s, "__dict__")]
     stage_keys = list(dict.fromkeys(k for s in stages for k in s))
     o = mission.objective
@@ -266,13 +266,14 @@ def _banner(sol: Solution, rows: list[dict]) -> dict | None:
                         f"conflicting specs: {conflict}. The plan below is the best attempt."}
     if sol.status == "solver_failed":
         title = "Solver failed"
-        lead = (f"{sol.solver.get('name', 'The solver')} stopped with return status "
-                f"“{sol.solver.get('return_status', 'unknown')}” after "
-                f"{sol.solver.get('iterations', '?')} iterations; the plan below is its last "
+        rec = sol.solver
+        lead = (f"{rec.name if 'name' in rec else 'The solver'} stopped with return status "
+                f"“{_or(rec.return_status, 'unknown')}” after "
+                f"{_or(rec.iterations, '?')} iterations; the plan below is its last "
                 f"iterate.")
     elif sol.status == "stopped":
         title = "Stopped by the time limit"
-        lead = (f"The time limit of {sol.solver.get('time_limit_s', '?')} s ended the search "
+        lead = (f"The time limit of {_or(sol.solver.time_limit_s, '?')} s ended the search "
                 f"before a satisfying plan was found; the plan below is the best verified one "
                 f"(exact robustness {fmt(sol.robustness_exact, signed=True)}).")
     else:
@@ -363,4 +364,8 @@ def build_view(program: Program, mission: Mission, solution: Solution,
 
 
 def _or_dash(value):
-    return "—" if value is None else value
+    return _or(value, "—")
+
+
+def _or(value, default):
+    return default if value is None else value
