@@ -19,12 +19,12 @@ when the solvers' share has run out (as ``stlc.interrupt`` does for Ctrl-C; a C 
 finishes first).  The pipeline then writes the best plan it has — with nothing found yet,
 the vehicles hovering at their start — judged by the exact monitor.
 
-Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (issue 23,
-"no solve without a time limit"), so no NLP solve, stage or build runs unbounded; a run that
+Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (no solve
+without a time limit), so no NLP solve, stage or build runs unbounded; a run that
 reaches it ends like any stopped run (best verified plan written, exit 3), and its notes say
 the limit was the default.  It is generous — 30× the slowest shipped mission (10–60 s on a
 loaded two-core machine) — so it never binds a mission that plans normally; the
-developers' ``STLC_DEFAULT_TIME_LIMIT`` (seconds) overrides it (tests).
+developers' ``STLC_DEFAULT_TIME_LIMIT`` (seconds, read by ``stlc.settings``) overrides it.
 
 Ctrl-C is not a time limit: it still stops at once and writes nothing (``stlc.interrupt``).
 """

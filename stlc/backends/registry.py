@@ -1,10 +1,10 @@
-"""Solver backends behind one interface (``stlc.backends.base.Backend``).
+"""The name → backend table (``registry()``) holding every backend behind the interface
+``stlc.backends.base.Backend``.
 
-``registry()`` is the name → backend table holding every backend; ``stlc.backends.strategy``
-chooses a chain of them for a problem by their capabilities (or the one a user forces with
-``--backend NAME`` or a mission's ``backend = NAME``); the replanning backends (``segment``,
-``takeover``) are run by the simulation on each event's problem.  See the README, "Adding a
-backend".
+``stlc.backends.strategy`` chooses a chain of them for a problem by their capabilities (or
+the one a user forces with ``--backend NAME`` or a mission's ``backend = NAME``); the
+replanning backends (``segment``, ``takeover``) are run by the simulation on each event's
+problem.  See the README, "Adding a backend".
 """
 
 from __future__ import annotations

@@ -10,11 +10,11 @@ vehicle models — "linear dynamics only" —, formula nodes, functions, planned
 ``needs_signals``: a team chain plans only missions that read a payload) plans it:
 
 * ``team``: task-assignment MILP → waypoint refinement (missions with payloads, paper B);
-* ``milp``: a coarse-grid MILP start (``milp_start``) → the exact STL→MILP backend (linear
+* ``milp``: a coarse-grid MILP start (``milp.start``) → the exact STL→MILP backend (linear
   vehicles, predicates linear in the state; integer variables decide every disjunction
   globally);
 * ``nlp``: MILP seed (the discrete choices of a double-integrator abstraction, chosen
-  globally; ``milp_seed``) → the full-dynamics smooth-robustness NLP (anything else);
+  globally; ``milp.seed``) → the full-dynamics smooth-robustness NLP (anything else);
   ``kinematic`` forces the local kinematic guess as the seed instead.
 
 A forced name (``--backend NAME`` or the mission's ``backend = NAME``) is a chain name or a

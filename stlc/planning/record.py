@@ -4,10 +4,11 @@
 ``name``, ``status`` (the shared ``SolverStatus``), its own ``return_status``, ``converged``,
 ``iterations``, the NLP's ``stages``, the backend ``chain`` (``ChainRecord``: its stages,
 the further seeds tried, the chain it fell back from), the ``stopped_by`` reason
-(``StopReason``) and its ``time_limit_s`` and a team plan's ``assignment`` (``Assignment``: how its routes were
-found) — and every backend-specific figure (objective, bound, gap, phases, the MILP seed's
-record, ...) in ``details``.  ``to_json`` writes the ``"solver"`` object of
-``solution.json`` with the keys in the order they were recorded, as the contract has them.
+(``StopReason``) with its ``time_limit_s``, and a team plan's ``assignment``
+(``Assignment``: how its routes were found) — and every backend-specific figure
+(objective, bound, gap, phases, the MILP seed's record, ...) in ``details``.  ``to_json``
+writes the ``"solver"`` object of ``solution.json`` with the keys in the order they were
+recorded, as the contract has them.
 
 Backends fill a record with the mapping interface (``{"name": ..., "objective": ...}``,
 ``record.update(...)``); the passes after them (the strategy, the notes shown to a user,

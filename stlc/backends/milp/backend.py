@@ -1,5 +1,5 @@
 """The exact backend for linear vehicles: the requirement's STL→MILP encoding
-(``milp_encode``) over the vehicles' exact discrete dynamics (``milp_model``) on the
+(``milp.encode``) over the vehicles' exact discrete dynamics (``milp.model``) on the
 mission grid, solved to its global optimum by HiGHS.
 
 ``lower`` builds the model once: every vehicle offering a linear model ``(A, B)``
@@ -195,7 +195,7 @@ class ExactMilp(Backend):
                                 functions=frozenset(), linear_dynamics_only=True,
                                 integer_variables=True)
     STATUS_MAP = HIGHS_STATUS_MAP
-    lower_needs_seed = False  # built while a coarse start (``milp_start``) solves apart
+    lower_needs_seed = False  # built while a coarse start (``milp.start``) solves apart
 
     def __init__(self, quiet: bool = True, time_limit: float | None = None,
                  one_hot: int = ONE_HOT_MAX):

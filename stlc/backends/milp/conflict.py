@@ -2,7 +2,7 @@
 specs conflict.
 
 When the verdict on a plan is not ``satisfied``, ``explain_infeasible`` asks whether *any*
-plan could be: it encodes the requirement (``milp_encode``) over a **relaxation** of the
+plan could be: it encodes the requirement (``milp.encode``) over a **relaxation** of the
 vehicles and asks HiGHS for a plan whose robustness reaches κ.  The relaxation contains
 every trajectory the real vehicles can fly on the mission grid, so "infeasible" there is a
 proof:

@@ -3,7 +3,7 @@
 Every (sub-formula, sample) gets a *term*: a constant (±∞ for an empty window, ``true``,
 ``false``) or an affine function of the columns with an interval [lo, hi] that contains its
 value for every trajectory of the vehicles (from the state intervals of
-``milp_model.propagate``).  The term of φ at k is a *lower bound* of the robustness
+``milp.model.propagate``).  The term of φ at k is a *lower bound* of the robustness
 ρ(φ, k) for every feasible assignment, and equal to it for some (Kurtz & Lin 2022,
 "Mixed-Integer Programming for Signal Temporal Logic with Fewer Binary Variables",
 arXiv 2204.06367), so maximising the term of the requirement at 0 (its epigraph variable)

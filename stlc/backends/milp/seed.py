@@ -1,6 +1,6 @@
 """MILP seeds for nonlinear vehicles: the discrete structure of a plan chosen globally.
 
-The full NLP (``casadi_nlp``) is local: started on the wrong side of an obstacle, or at the
+The full NLP (``nlp.model``) is local: started on the wrong side of an obstacle, or at the
 wrong sample of an ``eventually``, it converges there, and no smoothing λ moves it across.
 ``MilpPathSeed`` replaces the local kinematic guess of the ``nlp`` chain by a global one:
 
@@ -15,7 +15,7 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
 * the grid is **as coarse as the formula's intervals allow**: the largest multiple h of the
   mission step, at most ``MAX_STEP_S``, that divides the horizon and every finite bound of a
   temporal operator — so every window of the formula falls on seed samples;
-* the STL→MILP encoding of ``milp_encode`` (a binary per branch of every disjunction: the
+* the STL→MILP encoding of ``milp.encode`` (a binary per branch of every disjunction: the
   side of every obstacle, the sample of every ``eventually``, the branch of every ``or``)
   is solved by HiGHS in three phases (``_solve``): a path with ρ̂ ≥ κ, a shorter one from it
   (L1 acceleration penalty: LPs with the choices fixed, each followed by the best choices
@@ -44,7 +44,7 @@ guess as before; ``Solution.solver`` says which ran.  ``next_seed`` gives the ne
 discrete choice (a no-good cut on this seed's binaries for the conjuncts a plan violates),
 which ``pipeline`` tries when the plan from this seed misses κ.  The seed proves nothing: it
 is neither a relaxation (inner bounds, coarse samples) nor the verdict (the exact monitor
-judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp_conflict``'s.
+judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp.conflict``'s.
 """
 
 from __future__ import annotations
@@ -339,7 +339,7 @@ def _free(milp, top: int, cost: dict[int, float], kappa: float, res, limit: floa
 
 class MilpPathSeed(KinematicGuess):
     """The ``nlp`` chain's seed: the MILP seed path, else the kinematic guess.  When no seed
-    path reaches κ, the sound relaxation of ``milp_conflict`` is asked for a proof at once
+    path reaches κ, the sound relaxation of ``milp.conflict`` is asked for a proof at once
     (before the NLP spends its λ schedule on an impossible mission); with a proof the
     Solution is ``infeasible`` and ``run_chain`` stops there."""
 

@@ -9,7 +9,7 @@ then the NLP missed κ and the whole fallback ran).  Here a predicate ``c − �
 0`` with affine a_i and a constant c becomes the box ``|a_i| ≤ c/√k`` for every i (a
 conjunction: no binary).  The box lies inside the ball (‖a‖₂ ≤ √k · max|a_i|), so a path
 that keeps it keeps the limit — an *inner* approximation, right for a seed (the MILP must
-not pick a path the vehicle may not fly) and wrong for a proof (``milp_conflict`` keeps
+not pick a path the vehicle may not fly) and wrong for a proof (``milp.conflict`` keeps
 dropping such predicates: its relaxation must contain every plan).  A norm bound from
 below (``‖a‖ ≥ c``, not convex) and every other nonlinear predicate are left as they are.
 """

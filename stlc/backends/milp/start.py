@@ -2,14 +2,14 @@
 
 The exact MILP of a long mission on a fine grid has thousands of binaries; HiGHS may search
 for its whole budget without finding any plan (the 60 s patrol at 0.2 s: 19 k binaries, no
-incumbent in 120 s).  The same mission on a coarse grid (``milp_seed.seed_factor``: every
+incumbent in 120 s).  The same mission on a coarse grid (``milp.seed.seed_factor``: every
 window of the formula still falls on its samples, at most 61 of them) is a MILP of a few
 hundred binaries that HiGHS solves in seconds.
 
-``CoarseStart`` solves that coarse MILP (``milp_seed.plan``: double integrators with the
+``CoarseStart`` solves that coarse MILP (``milp.seed.plan``: double integrators with the
 vehicles' own speed and acceleration bounds, ρ̂ ≥ κ, then the most robust path of its
 homotopy class; every region the formula keeps the vehicle out of inflated by
-``milp_seed.clearance``, so that the path between coarse samples cannot cut its corners)
+``milp.seed.clearance``, so that the path between coarse samples cannot cut its corners)
 in a forked child while the exact backend builds its model, and hands the path to the
 exact MILP as a seed ``Solution``.  For a vehicle whose linear model is the double
 integrator (the point mass), the coarse path with its acceleration held over each coarse

@@ -4,7 +4,7 @@
   robustness of the position/velocity part of the requirement (``schedule.kinematic_guess``);
   its ``Solution`` carries ``<v>.pos.*``, ``<v>.vel.*`` and ``<v>.acc.*`` channels.
 * ``CasadiNlp`` — the smooth-robustness trajectory NLP with the vehicles' dynamics
-  (``casadi_nlp.build`` + the λ/energy schedule of ``schedule.solve_mission``), seeded from
+  (``nlp.model.build`` + the λ/energy schedule of ``schedule.solve_mission``), seeded from
   the previous backend's channels.
 
 Their ``invert`` returns channels in mission-level names (states, inputs, and derived

@@ -2,7 +2,7 @@
 
 The quantities ``--set`` changes without changing the structure — a human's pose (the
 ``Param`` leaves of formulas) and a vehicle's start state — are not constants of the NLP:
-the pose is a vector of NLP parameters (``casadi_nlp.build`` appends them to ``p``) and the
+the pose is a vector of NLP parameters (``nlp.model.build`` appends them to ``p``) and the
 start state is the bounds of the first sample's variables.  So one build serves every value,
 and a plain ``stlc compile`` goes through the same path (``lowered``: a cache miss builds,
 then ``bind`` sets the instance's values — also on the instance that was built).

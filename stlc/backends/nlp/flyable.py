@@ -1,5 +1,5 @@
 """Plans that can fly: a holdable end state and no heading drift (rows and terms of the
-CasADi NLP, ``casadi_nlp.build``).
+CasADi NLP, ``nlp.model.build``).
 
 **Holdable end state** (default; a mission's ``end = free`` turns it off).  The last sample
 must be an equilibrium the vehicle can hold with zero input: every component of the

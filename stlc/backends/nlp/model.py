@@ -15,7 +15,7 @@ objective, integrator, end state, iteration limit, start states), never the miss
   E/n is the mean per-sample energy (1 at hover), O(1) like ρ̃: the summed E (≈ 170) made
   IPOPT crawl along the robustness constraint (263 → 123 iterations measured).
 * ρ̃ is the smooth robustness of the *planner form* ``P_κ(f)`` of the requirement
-  (``casadi_expr.planner_form``): margins with the sign of m − κ, in units of each
+  (``nlp.expr.planner_form``): margins with the sign of m − κ, in units of each
   predicate's own scale, without atan2/√ singularities at hover.  ρ̃(P_κ f) > 0 ⟹ ρ(f) > κ.
 
 ``solve_mission`` runs the schedule (see ``SCHEDULE``) and ``invert`` maps the raw result back

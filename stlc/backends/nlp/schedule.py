@@ -1,7 +1,7 @@
 """Solve schedule for the CasADi backend (the initial guess: ``kinematic``).
 
 **What is optimised.**  The NLP maximises the smooth robustness of the *planner form*
-``P_κ(f)`` (``casadi_expr.planner_form``): each predicate margin m becomes a smooth margin
+``P_κ(f)`` (``nlp.expr.planner_form``): each predicate margin m becomes a smooth margin
 with the sign of m − κ, divided by its own scale (a box's half-width, a bound's value), so
 that ρ̃(P_κ f) > 0 certifies ρ(f) > κ for the formula as written (the exact monitor still
 judges that).  λ acts on these dimensionless margins.
@@ -20,7 +20,7 @@ has ρ̃(P_κ) ≥ ``PLAN_MARGIN``; only if its plan misses κ, a second one add
 **Energy first.**  With an energy (or forward-speed) objective, that energy solve runs first,
 straight from the seed's guess with the seed's choices, at the smallest λ where the guess
 has ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (``ENERGY_FIRST``); the robustness schedule above runs only if
-its plan misses κ, from the same guess.  The seed is global (``milp_seed``) and already
+its plan misses κ, from the same guess.  The seed is global (``milp.seed``) and already
 inside the class the robustness stage used to find, so that stage mostly re-did the seed's
 work.  A robustness-only ``compare`` plan is solved as the robustness stage's first solve
 would have been (from the guess, with its choices: ``_compare``) — in a forked child while

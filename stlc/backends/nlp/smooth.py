@@ -10,7 +10,7 @@
   that make every constraint hold (the un-lifted smooth values) and the un-lifted root.
 
 Semantics (the numpy reference ``stlc.analysis.smooth`` computes the same numbers): predicates are
-their expression (``casadi_expr``); ``and``/``always``/the inner min of ``until`` use the
+their expression (``nlp.expr``); ``and``/``always``/the inner min of ``until`` use the
 smooth min, ``or``/``eventually``/the outer max of ``until`` the smooth max of ``method``
 (``"gkl"`` or ``"lse"``), each as *one flat* smooth op over all its operands (the until inner
 min is over ``{g(k')} ∪ {f(k..k')}``, the release inner max over ``{b(k')} ∪ {a(k..k')}``).
@@ -24,7 +24,7 @@ sample set it needs onto its children (``always[0,17]`` at {0} needs its child a
 the binary expansion of L (≤ log2 L + 1 blocks); a block of size 2^j at start p combines the
 two blocks of size 2^(j-1) at p and p + 2^(j-1).  Blocks are built level by level, vectorised
 over every start any window needs, so n windows of length W cost O(n log W) operands
-instead of O(n W).  The smooth ops are associative in the block form (see ``casadi_expr``),
+instead of O(n W).  The smooth ops are associative in the block form (see ``nlp.expr``),
 so the value equals the flat one up to rounding.
 
 **Lifting.**  Every value carries a *span*, the number of base operands (predicates or aux

@@ -1,4 +1,4 @@
-"""Data of the CasADi smooth-robustness lowering (``smooth_casadi``): its result, values
+"""Data of the CasADi smooth-robustness lowering (``nlp.smooth``): its result, values
 and windows.
 
 ``LoweredRobustness`` is what ``lower_robustness`` returns (root, aux, constraints, init).

@@ -1,5 +1,5 @@
 """The operator move's replan (paper A §6, ``stlc simulate --move``): the rest of the
-mission on the same parametric NLP as the compile (``nlp_cache``: the human's new pose is a
+mission on the same parametric NLP as the compile (``nlp.cache``: the human's new pose is a
 parameter value, nothing is rebuilt), every sample up to the move fixed to what was flown
 (bounds), warm-started from the flown plan or from the nearest plan of a sweep's directory
 (``--library DIR``), through the whole λ/energy schedule.  ``stlc.replan.move`` decides

@@ -8,7 +8,7 @@ trajectory NLP that replanning needs and nothing more:
 
 * **dynamics** — the vehicle model's ODE (``stlc.vehicles.model_of(v).ode(v)``) discretised
   with the plan's integrator at the mission step (``dynamics.discrete_dynamics``, same
-  sub-steps as ``casadi_nlp``), multiple shooting, inputs held over each step; the state and
+  sub-steps as ``nlp.model``), multiple shooting, inputs held over each step; the state and
   input bounds (rotor forces, per-axis velocity/acceleration) and the flight envelope of
   the vehicle model (``envelope``);
 * **a fixed number of intervals** ``M`` (the longest segment the waypoint rule can produce)
@@ -21,9 +21,9 @@ trajectory NLP that replanning needs and nothing more:
   again exactly (up to IPOPT's constraint tolerance);
 * **kept specs** — each must be (a conjunction of) ``always[a, b]`` over a formula of the
   vehicle's state predicates (no temporal operator inside).  The body is put in planner form
-  ``P_κ`` (``casadi_expr.planner_form``: margins with the sign of m − κ, scaled per box) and
-  lowered with ``casadi_expr.lower_expr``; each conjunct of the body is one constraint per
-  node, ``or`` is the GKL smooth max and a nested ``and`` the smooth min (``casadi_expr``,
+  ``P_κ`` (``nlp.expr.planner_form``: margins with the sign of m − κ, scaled per box) and
+  lowered with ``nlp.expr.lower_expr``; each conjunct of the body is one constraint per
+  node, ``or`` is the GKL smooth max and a nested ``and`` the smooth min (``nlp.expr``,
   λ = ``KEPT_LAMBDA``): both are lower bounds of the exact max/min, so a constraint ≥ 0
   implies the exact margin ≥ κ at that node.  Which nodes a clause covers (its window
   ``[a, b]`` ∩ the segment) is set per solve through the constraint bounds;
@@ -35,7 +35,7 @@ trajectory NLP that replanning needs and nothing more:
   linearly over the segment; IPOPT's multipliers are not warm-started.
 
 IPOPT stops at ``max_wall_time`` = the compute budget t_c; its return status is mapped
-through ``casadi_nlp.STATUS_MAP``.  Only the solver call is timed (wall and CPU).
+through ``nlp.model.STATUS_MAP``.  Only the solver call is timed (wall and CPU).
 """
 
 from __future__ import annotations
