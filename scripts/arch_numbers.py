@@ -27,7 +27,8 @@ sys.path.insert(0, str(HERE / "tests"))
 import test_architecture as ta  # noqa: E402
 import test_import_graph as tg  # noqa: E402
 from test_import_graph import strongly_connected  # noqa: E402
-from test_layers import unit, violations  # noqa: E402
+from test_layers import (ORDERERS, ORDERERS_MAY_IMPORT, _under,  # noqa: E402
+                         environment_reads, record_subscripts, unit, violations)
 
 #: the family order of ``stlc/backends``: an import may only go to an equal or lower rank
 FAMILY_RANK = {"base": 0, "nlp": 1, "milp": 2, "team": 2, "replan": 3, "registry": 4,
@@ -66,7 +67,7 @@ def wing(g: dict[str, set[str]], paths: dict[str, Path], families: dict[str, str
         fam[family(m, families)] |= {family(t, families) for t in ts} - {family(m, families)}
     lines = {m: len(p.read_text(encoding="utf-8").splitlines()) for m, p in paths.items()
              if m.startswith("stlc.backends")}
-    flat = sorted(m for m in bk if m.count(".") == 2
+    flat = sorted(m for m in bk if m.count(".") == 2 and paths[m].name != "__init__.py"
                   and m.split(".")[2] not in ("base", "registry", "strategy"))
     solver_calls = sorted(ta._rel(p) for m, p in paths.items()
                           if not m.startswith("stlc.solvers")
@@ -87,6 +88,20 @@ def wing(g: dict[str, set[str]], paths: dict[str, Path], families: dict[str, str
         print("    ", p)
     print(f"highspy/cvxpy/nlpsol outside stlc/solvers: {len(solver_calls)} modules "
           f"{solver_calls}")
+    orderer_imports = sorted({f"{m} -> {t}" for m, ts in g.items() if _under(m, ORDERERS)
+                              for t in ts if t.startswith("stlc.backends")
+                              and t not in ORDERERS_MAY_IMPORT})
+    print(f"orderers importing backends past strategy/registry/base: {len(orderer_imports)}")
+    for o in orderer_imports:
+        print("    ", o)
+    subs = {m: len(record_subscripts(ast.parse(p.read_text(encoding="utf-8"))))
+            for m, p in paths.items() if _under(m, ORDERERS)}
+    print(f"solve-record reads as a dict in the orderers: {sum(subs.values())} "
+          f"{ {m: n for m, n in subs.items() if n} }")
+    env = {m: len(environment_reads(ast.parse(p.read_text(encoding="utf-8"))))
+           for m, p in paths.items()}
+    print(f"os.environ reads: {sum(env.values())} in {len([n for n in env.values() if n])} "
+          f"modules {sorted(m for m, n in env.items() if n)}")
 
 
 def main() -> int:
