@@ -79,3 +79,16 @@ def test_the_notes_follow_where_the_routes_came_from():
     assert "the heuristic" in _team("greedy", "heuristic")[1].notes[0]
     assert "greedy rule" in _team("greedy", "greedy")[1].notes[0]
     assert _team("milp", "")[1].notes == []  # optimal: nothing to say
+
+
+def test_a_record_crosses_a_process_boundary():
+    """A solve apart (``stlc.backends.nlp.apart``) or a sweep worker pickles its record."""
+    import copy
+    import pickle
+
+    rec = SolveRecord.of({"name": "x", "status": "optimal", "objective": 1.0,
+                          "chain": {"name": "nlp", "forced": False,
+                                    "stages": [{"backend": "a", "status": "optimal",
+                                                "converged": True}]}})
+    for other in (pickle.loads(pickle.dumps(rec)), copy.deepcopy(rec)):
+        assert other.to_json() == rec.to_json() and other.status is SolverStatus.OPTIMAL
