@@ -93,7 +93,7 @@ def compile(program, mission: str | None = None, *, set: Mapping | None = None, 
                           start=time.monotonic()):
         problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
                                     values=values or None)
-        if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
+        if risk and m.risk is not None and sol.solver.stopped_by == "time_limit":
             sol.notes.append("the risk cases were not assessed: the time limit ran out "
                              "(`stlc.risk(program, mission, plan)` assesses them)")
         elif risk and m.risk is not None:

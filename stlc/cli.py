@@ -5,9 +5,8 @@ Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, not
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
 ``simulate``'s executed trajectory did not keep its specs (report still written), 130
 interrupted by Ctrl-C (nothing written, earlier outputs left as they were; SIGTERM 143 and
-SIGHUP 129 alike), 141 the reader
-of stdout went away.  Bad input never shows a Python traceback; an internal error prints
-one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+SIGHUP 129 alike), 141 the reader of stdout went away.  Bad input never shows a Python
+traceback; an internal error prints one line (``STLC_DEBUG=1``: the traceback), exits 4.
 
 Every command runs in a worker thread with a large stack (``stlc.interrupt.run``): deep
 formulas recurse safely and Ctrl-C stops a running solve at once.
@@ -253,7 +252,9 @@ def _failure(text: str) -> tuple[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from stlc import interrupt
+    from stlc import interrupt, settings
+
+    settings.limit_solver_threads()  # one MUMPS/BLAS thread each, before they load
 
     parser = _parser()
     args = parser.parse_args(argv)
@@ -292,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except Exception as e:  # noqa: BLE001 - the last line of defence
-        if os.environ.get("STLC_DEBUG"):
+        if settings.debug():
             traceback.print_exc()
         print(f"stlc: internal error: {type(e).__name__}: {e}\n"
               "  = help: this is a bug in stlc; rerun with STLC_DEBUG=1 for details",
@@ -410,14 +411,11 @@ def cmd_risk(args) -> int:
         return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
                          sets=args.sets)
     from stlc.analysis.risk_parallel import distributed
-    from stlc.sweep.run import _client, _close
+    from stlc.sweep.run import dask_session
 
-    client, cluster = _client(args.workers, args.scheduler, args.file)
-    try:
+    with dask_session(args.workers, args.scheduler, args.file) as client:
         return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
                          sets=args.sets, shared=distributed(client))
-    finally:
-        _close(client, cluster)
 
 
 def cmd_sweep(args) -> int:

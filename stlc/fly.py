@@ -138,7 +138,7 @@ def _replanned(problem, sol, program, m, pushes):
     replanned segments, is the reference the controller then tracks."""
     from dataclasses import replace
 
-    from stlc.backends.segment import SegmentBackend
+    from stlc.backends.strategy import replanner
     from stlc.replan.disturb import simulate_disturbances
     from stlc.replan.explain import default_waypoint_period
     from stlc.semantics import model
@@ -152,7 +152,7 @@ def _replanned(problem, sol, program, m, pushes):
     with deadline.bounded():
         try:
             sim = simulate_disturbances(problem, sol, list(pushes), cfg,
-                                        segment=SegmentBackend)
+                                        segment=replanner("segment"))
         except ValueError as e:  # the replanning modules' input errors (subclasses)
             if type(e) is ValueError:
                 raise
@@ -337,13 +337,10 @@ def command(args) -> int:
 
     if not args.runs or (args.workers is None and args.scheduler is None):
         return run()
-    from stlc.sweep.run import _client, _close
+    from stlc.sweep.run import dask_session
 
-    client, cluster = _client(args.workers, args.scheduler, args.file)
-    try:
+    with dask_session(args.workers, args.scheduler, args.file) as client:
         return run(client)
-    finally:
-        _close(client, cluster)
 
 
 def monitor_log(args, program):

@@ -183,21 +183,24 @@ def fly(program: model.Program, m: model.Mission, events: tuple, *, values=None,
     with deadline.bounded():
         try:
             if moves:
-                from stlc.backends.move_replan import replan_rest
+                from stlc.backends import strategy
                 from stlc.replan.move import moved_program, simulate_move
 
-                sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
+                sim = simulate_move(problem, sol, moves[0], library,
+                                    replanner=strategy.replanner("move"))
                 program = moved_program(program, moves[0])
             elif fails:
-                from stlc.backends.backup import TakeoverBackend
+                from stlc.backends import strategy
                 from stlc.replan.takeover import simulate_failure
 
-                sim = simulate_failure(problem, sol, fails[0], cfg, planner=TakeoverBackend())
+                sim = simulate_failure(problem, sol, fails[0], cfg,
+                                       planner=strategy.replanner("takeover"))
             else:
-                from stlc.backends.segment import SegmentBackend
+                from stlc.backends import strategy
                 from stlc.replan.disturb import simulate_disturbances
 
-                sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
+                sim = simulate_disturbances(problem, sol, dist, cfg,
+                                            segment=strategy.replanner("segment"))
         except ValueError as e:  # the replanning modules' input errors (subclasses)
             if type(e) is ValueError:
                 raise

@@ -270,7 +270,7 @@ def test_handover_mission_plans_satisfying(handover_plans, handover_program, nam
 #   grids are integrated with RK4 sub-steps of at most 0.1 s (``casadi_nlp.substeps``);
 #   with one step per 0.5 s interval the defect was 3-4 cm.
 
-from stlc.backends.casadi_nlp import substeps  # noqa: E402
+from stlc.backends.nlp.model import substeps  # noqa: E402
 
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
 

@@ -156,17 +156,17 @@ def test_dryden_variance_and_correlation():
 def test_runs_on_dask_equal_the_local_runs(climb_plan, monkeypatch):
     """Two chunks (cut on the client) on a local Dask cluster of two workers (the sweep's
     client setup) give the numbers of the local loop."""
-    from stlc.sweep.run import _client, _close
+    from stlc.sweep.run import close_client, dask_client
 
     program, m, tr = climb_plan
     monkeypatch.setattr(engine, "CHUNK", 4)
     setup = rigid.FlightSetup(wind=(1.0, 1.0, 0.0), turbulence="light")
     local = engine.many(program, m, tr.times, tr.channels, setup, 7, seed=2)
-    client, cluster = _client(2, None, str(CLIMB))
+    client, cluster = dask_client(2, None, str(CLIMB))
     try:
         dist = engine.many(program, m, tr.times, tr.channels, setup, 7, seed=2, client=client)
     finally:
-        _close(client, cluster)
+        close_client(client, cluster)
     for k in local:
         np.testing.assert_array_equal(local[k], dist[k])
 

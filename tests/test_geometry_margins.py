@@ -102,7 +102,7 @@ def test_stlw05_names_the_units():
 
 
 def test_milp_seed_robustness_is_below_the_exact_one():
-    from stlc.backends import milp_seed
+    from stlc.backends.milp import seed as milp_seed
     from stlc.planning.problem import from_mission
 
     path = ROOT / "specs" / "tower_inspection.stl"

@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stlc.analysis import monitor
-from stlc.backends.smooth_geometry import SD_CASADI
+from stlc.backends.nlp.smooth_geometry import SD_CASADI
 from stlc.semantics import ir
 from stlc.semantics.polyhedral import lower_pieces, polyhedral, upper_pieces
 from stlc.semantics.shapes import Round, centre_exprs, local, sd_call, signed_distance

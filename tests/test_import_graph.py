@@ -18,7 +18,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent / "stlc"
 
-#: cycles outside the checker that are known and being removed (issue 8); each entry is the
+#: cycles outside the checker that are known and being removed; each entry is the
 #: set of modules of one strongly connected component.  Empty it as they are fixed: an
 #: entry that no longer matches a cycle fails the test too.
 KNOWN_CYCLES: list[frozenset[str]] = []

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from stlc import deadline, pipeline, vehicles
-from stlc.backends import effort, knots
+from stlc.backends.knots import backend as knots
+from stlc.planning import effort
 from stlc.planning.problem import from_mission
 from stlc.vehicles import dynamics, multirotor
 
@@ -120,7 +121,7 @@ def test_knot_plan_is_the_full_model_on_the_mission_grid(tmp_path):
 
 
 def test_long_missions_take_the_knot_chain(tmp_path):
-    from stlc.backends.select import select
+    from stlc.backends.strategy import select
 
     program, mission = _load(tmp_path, horizon=6)
     assert select(from_mission(program, mission)).name == "nlp"  # 61 samples
@@ -133,7 +134,7 @@ def test_long_specs_check_and_pick_their_chains():
     the exact MILP's."""
     from pathlib import Path
 
-    from stlc.backends.select import select
+    from stlc.backends.strategy import select
 
     root = Path(__file__).resolve().parent.parent / "specs" / "long"
     want = {"tower_inspection_60s.stl": "knots", "patrol_60s.stl": "milp"}

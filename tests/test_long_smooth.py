@@ -1,4 +1,4 @@
-"""The exact MILP's plan is the smoothest of its most robust plans (``backends.jerk``): the
+"""The exact MILP's plan is the smoothest of its most robust plans (``backends.milp.jerk``): the
 same exact robustness as the MILP's vertex plan, and no more jerk (L1 of the acceleration's
 changes) — both measured on the written plans, by the exact monitor and by hand."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from stlc import pipeline
-from stlc.backends import jerk
+from stlc.backends.milp import jerk
 
 ROOT = Path(__file__).resolve().parent.parent
 

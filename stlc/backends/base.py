@@ -16,35 +16,17 @@ solver's own return codes to the shared ``SolverStatus`` through its ``STATUS_MA
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.semantics import ir
+from stlc.solvers.status import SolverStatus
 
 if TYPE_CHECKING:
     from stlc.planning.solution import Solution
     from stlc.planning.problem import PlanningProblem
-
-
-class SolverStatus(enum.StrEnum):
-    """How a solver run ended (shared by every backend)."""
-
-    OPTIMAL = "optimal"  # the solver's own convergence test
-    ACCEPTABLE = "acceptable"  # the solver's relaxed convergence test
-    STOPPED = "stopped"  # our stagnation rule stopped it (not converged)
-    MAX_ITER = "max_iter"  # iteration limit (not converged)
-    MAX_TIME = "max_time"  # time limit (not converged)
-    INFEASIBLE = "infeasible"
-    FAILED = "failed"
-    INTERRUPTED = "interrupted"
-    NOT_RUN = "not_run"
-
-    @property
-    def converged(self) -> bool:
-        return self in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,7 +91,7 @@ class Backend:
 
     def start(self, lowered: Any, problem: PlanningProblem) -> Callable[[], Any]:
         """Begin ``solve``; the returned function waits for its result.  By default the solve
-        runs now; a backend that can solve apart (``stlc.backends.apart``) overrides this."""
+        runs now; a backend that can solve apart (``stlc.backends.nlp.apart``) overrides this."""
         raw = self.solve(lowered, problem)
         return lambda: raw
 
@@ -196,7 +178,7 @@ def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solut
             except BaseException:  # a lowering error or Ctrl-C: stop the solve apart too
                 getattr(wait, "cancel", lambda: None)()
                 raise
-        from stlc.backends.effort import heartbeat
+        from stlc.planning.effort import heartbeat
 
         with heartbeat(f"{b.name} running (no verified plan yet)" if i == 0 else
                        f"{b.name} running",  # a backend that runs apart (a seed)

@@ -133,7 +133,7 @@ def _solver_stats() -> Iterator[list[dict]]:
     ``schedule._solve`` returns ``prob.solver.stats()`` of the solve it ran; it is wrapped
     for the duration of the block (the kinematic guess has its own solver and is timed as
     ``guess_s``)."""
-    from stlc.backends import schedule
+    from stlc.backends.nlp import schedule
 
     collected: list[dict] = []
     orig = getattr(schedule, "_solve", None)

@@ -50,10 +50,10 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
             write_flight_outputs(tmp, program, mission, sol.times, sol.channels)
         if sol.routes:
-            from stlc.backends.team_backend import solution_plan
+            from stlc.backends.strategy import team_plan
             from stlc.team.refine import per_drone_csv
 
-            for drone, text in per_drone_csv(solution_plan(sol)).items():
+            for drone, text in per_drone_csv(team_plan(sol)).items():
                 with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
                     fh.write(text)
         if sol.risk is not None:
@@ -99,7 +99,7 @@ def summary(sol: Solution, outdir: str) -> None:
                       f"with margin {s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
                       + (f": {s.binding_predicate}" if s.binding_predicate else ""),
                       file=sys.stderr)
-        note = words.impossibility_note(sol.solver.get("infeasibility"))  # type: ignore[arg-type]
+        note = words.impossibility_note(sol.solver.infeasibility)
         if note:
             print(f"  note: {sol.mission}: {note}", file=sys.stderr)
 

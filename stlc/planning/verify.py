@@ -118,7 +118,7 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
     status = sol.status
     satisfied = verdict.satisfied(exact, kappa) and sol.feasible
     if status == Verdict.INFEASIBLE and not satisfied:
-        pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
+        pass  # proved before any plan (``milp.conflict``): the plan shown cannot change that
     elif status != Verdict.SOLVER_FAILED:
         status = Verdict.SATISFIED if satisfied else Verdict.VIOLATED
     if 0 <= exact < kappa:

@@ -12,7 +12,7 @@ Otherwise the rest of the mission is replanned from the current state:
 the same parametric NLP (``nlp_cache``: the new pose is a parameter value, nothing is
 rebuilt) with every sample up to the event fixed to what was flown, warm-started from the
 current plan — or from the nearest plan of ``library`` (a sweep's ``plans/`` directory:
-``--library DIR``) — and the whole λ/energy schedule (``backends.move_replan``, handed in
+``--library DIR``) — and the whole λ/energy schedule (``backends.replan.move``, handed in
 by the pipeline).  The new plan is flown when its
 exact robustness at the new pose is ≥ κ; the record says what the decision was made on.
 """
@@ -74,7 +74,7 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
                   replanner) -> SimulationResult:
     """``replanner(problem, flown, k_e, library, pose) -> (channels, info)`` plans the rest
     of the mission (the problem at the new pose; the pipeline passes
-    ``backends.move_replan.replan_rest``)."""
+    ``backends.replan.move.replan_rest``)."""
     from stlc.analysis import monitor
 
     m, grid = problem.mission, problem.grid

@@ -20,7 +20,7 @@ import numpy as np
 from stlc.planning import words
 
 
-def _needs_pandas(what: str):
+def needs_pandas(what: str):
     try:
         import pandas as pd
     except ImportError:
@@ -147,7 +147,7 @@ class Plan:
     def to_dataframe(self):
         """The trajectory as a pandas ``DataFrame``: a column ``t`` and one per channel
         (``uav1.pos.x``, …), one row per sample.  Needs pandas."""
-        pd = _needs_pandas("plan.to_dataframe()")
+        pd = needs_pandas("plan.to_dataframe()")
         return pd.DataFrame(self.trajectory)
 
     # ------------------------------------------------------------------ the report

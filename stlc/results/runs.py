@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.planning import words
-from stlc.results.plan import Plan, _needs_pandas
+from stlc.results.plan import Plan, needs_pandas
 
 
 def _one_mission(program, mission: str | None, verb: str):
@@ -68,7 +68,7 @@ class Simulation:
 
     def to_dataframe(self):
         """The executed trajectory as a pandas ``DataFrame`` (needs pandas)."""
-        return _needs_pandas("simulation.to_dataframe()").DataFrame(self.executed)
+        return needs_pandas("simulation.to_dataframe()").DataFrame(self.executed)
 
     def write(self, outdir: str | os.PathLike) -> str:
         """Write the files of ``stlc simulate -o OUTDIR``; returns ``outdir``."""

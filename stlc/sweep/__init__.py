@@ -5,7 +5,7 @@ Dask distributed (a ``LocalCluster`` by default, an existing cluster by address)
   the file before anything starts (the same diagnostics as ``--set``);
 * ``task``   — what a worker runs for one instance (source text, mission, values in; a row
   and the plan out); the worker process keeps its built NLP and its plan library between
-  tasks (``stlc.backends.nlp_cache``, ``stlc.backends.library``);
+  tasks (``stlc.backends.nlp.cache``, ``stlc.backends.nlp.library``);
 * ``run``    — the client: submit, progress bar, Ctrl-C, outputs under the output-directory
   contract;
 * ``report`` — ``sweep.html``.

@@ -69,7 +69,7 @@ def _slots(client, workers: int | None, scheduler: str | None) -> int:
         return 1
 
 
-def _client(workers: int | None, scheduler: str | None, path: str):
+def dask_client(workers: int | None, scheduler: str | None, path: str):
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -91,7 +91,7 @@ def _client(workers: int | None, scheduler: str | None, path: str):
     with dask.config.set(WORKER_CONFIG):
         cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True,
                                dashboard_address=":0", silence_logs=logging.ERROR,
-                               env={"OMP_NUM_THREADS": "1", "STLC_NO_FORK": "1",
+                               env={"OMP_NUM_THREADS": "1",
                                     "STLC_MAP_THREADS": share})
     return Client(cluster), cluster
 
@@ -177,7 +177,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
 
         from stlc.sweep.task import run_instance
 
-        client, cluster = _client(workers, scheduler, path)
+        client, cluster = dask_client(workers, scheduler, path)
         order = Order([{n: v for n, v, _ in inst} for inst in insts], names)
         pending: set = set()
         finished: queue.SimpleQueue = queue.SimpleQueue()  # futures, as they finish
@@ -265,7 +265,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
                              workers, scheduler, interrupted, random, seed, time_limit, lost)
         finally:
             _cleanup(stage)
-    _close(client, cluster)
+    close_client(client, cluster)
     if collect is not None:
         collect.extend(rows[i] for i in sorted(rows))
     if interrupted:
@@ -275,7 +275,17 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     return 0 if summary["counts"].get("satisfied", 0) == len(insts) else 3
 
 
-def _close(client, cluster) -> None:
+@contextlib.contextmanager
+def dask_session(workers: int | None, scheduler: str | None, path: str):
+    """A Dask client (``dask_client``) for the ``with`` block, closed after it."""
+    client, cluster = dask_client(workers, scheduler, path)
+    try:
+        yield client
+    finally:
+        close_client(client, cluster)
+
+
+def close_client(client, cluster) -> None:
     with contextlib.suppress(Exception):
         if client is not None:
             client.close(timeout=5)

@@ -154,11 +154,11 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
               if k in sol.timing]
     solver_extra = [{"name": str(k), "text": str(v)} for k, v in sol.solver.items()
                     if k not in ("name", "iterations", "return_status", "stages", "chain")]
-    chain = sol.solver.get("chain") or {}
+    chain = sol.solver.chain.to_json() if sol.solver.chain is not None else {}
     chain_text = (f"{chain.get('name', '?')}{' (forced)' if chain.get('forced') else ''}: "
                   + " → ".join(f"{st['backend']} ({st['status']})"
                                for st in chain.get("stages", []))) if chain else "—"
-    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.get("stages") or []
+    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.stages or []
               if isinstance(s, dict) or hasattr(s, "__dict__")]
     stage_keys = list(dict.fromkeys(k for s in stages for k in s))
     o = mission.objective
@@ -183,9 +183,9 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "timing": timing,
         "solve_text": fmt(sol.timing.get("solve_s"), 3, unit="s"),
         "total_text": fmt(sol.timing.get("total_s"), 3, unit="s"),
-        "solver_name": str(sol.solver.get("name", "—")),
-        "iterations": str(sol.solver.get("iterations", "—")),
-        "return_status": str(sol.solver.get("return_status", "—")),
+        "solver_name": str(sol.solver.name or "—"),
+        "iterations": str(_or_dash(sol.solver.iterations)),
+        "return_status": str(_or_dash(sol.solver.return_status)),
         "solver_extra": solver_extra,
         "chain_text": chain_text,
         "smoothing_method": str(smoothing.get("method", "—")),
@@ -271,21 +271,22 @@ def _banner(sol: Solution, rows: list[dict], kappa: float) -> dict | None:
                         f"(exact robustness ρ = {fmt(sol.robustness_exact, signed=True)})."}
     if sol.status == "solver_failed":
         title = "Solver failed"
-        lead = (f"{sol.solver.get('name', 'The solver')} stopped with return status "
-                f"“{sol.solver.get('return_status', 'unknown')}” after "
-                f"{sol.solver.get('iterations', '?')} iterations; the plan below is its last "
-                f"iterate; {words.impossibility_note(sol.solver.get('infeasibility'))}.")
+        rec = sol.solver
+        lead = (f"{rec.name if 'name' in rec else 'The solver'} stopped with return status "
+                f"“{_or(rec.return_status, 'unknown')}” after "
+                f"{_or(rec.iterations, '?')} iterations; the plan below is its last "
+                f"iterate; {words.impossibility_note(rec.infeasibility)}.")
     elif sol.status == "stopped":
         title = "Stopped by the time limit"
-        lead = (f"The time limit of {sol.solver.get('time_limit_s', '?')} s ended the search "
+        lead = (f"The time limit of {_or(sol.solver.time_limit_s, '?')} s ended the search "
                 f"before a satisfying plan was found; the plan below is the best verified one "
                 f"(exact robustness ρ = {fmt(sol.robustness_exact, signed=True)} < κ = "
-                f"{fmt(kappa)}); {words.impossibility_note(sol.solver.get('infeasibility'))}.")
+                f"{fmt(kappa)}); {words.impossibility_note(sol.solver.infeasibility)}.")
     else:
         title = "Mission violated"
         lead = (f"No satisfying plan was found: exact robustness ρ = "
                 f"{fmt(sol.robustness_exact, signed=True)} < κ = {fmt(kappa)}; "
-                f"{words.impossibility_note(sol.solver.get('infeasibility'))}.")
+                f"{words.impossibility_note(sol.solver.infeasibility)}.")
     out = {"status": sol.status, "title": title, "lead": lead, "spec": None}
     if worst is not None and not worst["satisfied"]:
         out["spec"] = {k: worst[k] for k in ("name", "robustness_text", "tightest_text",
@@ -370,3 +371,11 @@ def build_view(program: Program, mission: Mission, solution: Solution,
                      risk_samples),
         "source": _source(program, mission, solution, rows),
     }
+
+
+def _or_dash(value):
+    return _or(value, "—")
+
+
+def _or(value, default):
+    return default if value is None else value
