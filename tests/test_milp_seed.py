@@ -96,7 +96,7 @@ def test_the_seed_path_is_sampled_exactly_onto_the_mission_grid():
     for k in range(2):
         xs[k + 1, :3] = xs[k, :3] + h * xs[k, 3:] + h * h / 2 * uu[k]
         xs[k + 1, 3:] = xs[k, 3:] + h * uu[k]
-    P, V, A = milp_seed._refine(xs, uu, m, dt)
+    P, V, A = milp_seed.refine(xs, uu, m, dt)
     assert P.shape == (3, 7) and A.shape == (3, 6)
     for j in range(6):
         np.testing.assert_allclose(P[:, j + 1], P[:, j] + dt * V[:, j] + dt * dt / 2 * A[:, j],

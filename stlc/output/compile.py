@@ -78,12 +78,12 @@ def summary(sol: Solution, outdir: str) -> None:
     kappa = float(sol.smoothing.get("threshold", 0.0) or 0.0)
     print(f"{sol.mission}: {words.verdict_line(sol.status, sol.robustness_exact, kappa)}  "
           f"energy {energy}  → {outdir}/report.html")
-    if sol.status == "infeasible":
-        for d in sol.diagnostics:
-            if d.code == "STL504":
-                print(f"  error[STL504]: {d.message}"
-                      + (f"\n  = help: {d.help}" if d.help else ""), file=sys.stderr)
-    elif sol.status != "satisfied":
+    # the plan's own errors, once: STL504 (no plan exists), STL503 (no plan found)
+    for d in sol.diagnostics if sol.status != "satisfied" else ():
+        if d.severity == "error":
+            print(f"  error[{d.code}]: {d.message}"
+                  + (f"\n  = help: {d.help}" if d.help else ""), file=sys.stderr)
+    if sol.status not in ("satisfied", "infeasible"):
         worst = min(sol.specs.items(), key=lambda kv: kv[1].robustness, default=None)
         if worst is not None:
             name, s = worst

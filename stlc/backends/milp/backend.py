@@ -252,9 +252,9 @@ class ExactMilp(Backend):
             if res2.x is not None and (res.x is None or -res2.objective > -res.objective):
                 low.milp, low.vehicles, low.top = free.milp, free.vehicles, free.top
                 res, self.among = res2, ALL_PLANS
-            elif res2.status not in ("Optimal", "Infeasible"):  # the retry was cut short
+            elif res2.highs_status not in ("Optimal", "Infeasible"):  # the retry was cut short
                 self.among = (f"{AT_REST}; the re-solve without the rest end stopped "
-                              f"({res2.status}, {res2.wall_s:.1f} s): a better plan that "
+                              f"({res2.highs_status}, {res2.wall_s:.1f} s): a better plan that "
                               "does not end at rest may exist")
             res.wall_s = wall
         from stlc.backends.milp.jerk import least_jerk

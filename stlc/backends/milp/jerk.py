@@ -46,8 +46,8 @@ def least_jerk(low, res, phases: list | None = None):
     h.set_col_bounds(low.top, min(top - ROUND, src.hi[low.top]), src.hi[low.top])
     out = h.solve()
     if phases is not None:
-        phases.append(("smoothest plan (choices and ρ̂ kept)", out.status, out.wall_s))
-    if out.x is None or out.status != "Optimal":
+        phases.append(("least-jerk plan (choices and ρ̂ kept)", out.highs_status, out.wall_s))
+    if out.x is None or out.highs_status != "Optimal":
         return res
     res.x = out.x[: src.n_cols]
     res.wall_s += out.wall_s
