@@ -2,14 +2,14 @@
 
 The Python API (``stlc.api``, loaded on first use so that ``import stlc`` stays cheap):
 ``stlc.load(path)``, ``stlc.loads(text)``, ``stlc.compile(program, mission)``,
-``stlc.monitor(program, trace)``, ``stlc.simulate``, ``stlc.sweep``, ``stlc.risk`` and
-``stlc.StlError`` (see docs/python.md).
+``stlc.monitor(program, trace)``, ``stlc.simulate``, ``stlc.sweep``, ``stlc.risk``,
+``stlc.fly`` and ``stlc.StlError`` (see docs/python.md).
 """
 
 __version__ = "0.1.0"
 
 _API = ("load", "loads", "compile", "monitor", "StlError", "Plan", "with_constants",
-        "simulate", "sweep", "risk", "Simulation", "Track", "SweepTable")
+        "simulate", "sweep", "risk", "fly", "Simulation", "Track", "SweepTable")
 __all__ = list(_API)
 
 

@@ -28,10 +28,11 @@ from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.results.inputs import trace_of as _trace_of
 from stlc.results.inputs import with_constants, with_settings
 from stlc.results.plan import Plan, Track
-from stlc.results.runs import Simulation, SweepTable, risk, simulate, sweep
+from stlc.results.runs import Simulation, SweepTable, fly, risk, simulate, sweep
 
 __all__ = ["Plan", "Simulation", "StlError", "SweepTable", "Track", "compile", "load",
-           "loads", "monitor", "risk", "simulate", "sweep", "with_constants", "_trace_of"]
+           "loads", "monitor", "fly", "risk", "simulate", "sweep", "with_constants",
+           "_trace_of"]
 
 StlError = StlcError  # the public name; ``.diagnostics`` is a list of ``Diagnostic``
 

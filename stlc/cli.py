@@ -69,7 +69,7 @@ def _parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
     m.add_argument("file", metavar="FILE", help="the .stl file whose specs are monitored")
-    from stlc.fly import add_log_options
+    from stlc.flying import add_log_options
     add_log_options(m)
     m.add_argument("--json", action="store_true", help="print one JSON object")
     m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
@@ -123,7 +123,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="warm-start a replan from the nearest plan of a sweep's DIR")
     _set_option(s)
 
-    from stlc.fly import add_parser as add_fly
+    from stlc.flying import add_parser as add_fly
     add_fly(sub, _set_option, _seconds)
 
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
@@ -351,7 +351,7 @@ def cmd_monitor(args) -> int:
     if args.mission is not None:
         mission_named(args.file, program, args.mission)
     if args.log is not None:
-        from stlc.fly import monitor_log  # the flight-log readers load only for --log
+        from stlc.flying import monitor_log  # the flight-log readers load only for --log
         trace, res = monitor_log(args, program)
     else:
         trace = read_trace(args.trace, resample=args.resample)
@@ -399,7 +399,7 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_fly(args) -> int:
-    from stlc.fly import command
+    from stlc.flying import command
 
     return command(args)
 

@@ -219,3 +219,14 @@ def test_plot_draws_round_regions():
     top = next(t for t in scene.data if t.type == "mesh3d" and t.name == "top")
     d = np.linalg.norm(np.stack([top.x, np.asarray(top.y) - 3.5, np.asarray(top.z) - 9]), axis=0)
     assert d == pytest.approx(np.full(d.shape, 0.8), abs=1e-3)  # sphere(radius = 0.8 m)
+
+
+def test_fly_from_python_is_the_commands_flight(tmp_path):
+    """``stlc.fly`` returns ``flight.json``; the flown robustness is the exact monitor's on
+    the written ``flown.csv``."""
+    climb = Path(__file__).parent / "missions" / "hexa_climb.stl"
+    rec = stlc.fly(climb, out=tmp_path / "f", runs=20, seed=3, wind=(2.0, 0.0, 0.0))
+    assert rec["runs"]["n"] == 20
+    assert 0 <= rec["runs"]["p_violation"] <= rec["runs"]["p_violation_upper"] <= 1
+    again = stlc.monitor(stlc.load(climb), str(tmp_path / "f" / "flown.csv"))
+    assert again["climb"] == pytest.approx(rec["flown"]["robustness"], abs=1e-6)

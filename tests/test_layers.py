@@ -23,7 +23,7 @@ The units, lowest first (``LAYERS``)::
     simulation ``stlc simulate``: the compile, then the flight loops of ``replan``
     tools      language tools: fmt, lsp, explain
     sweep      ``stlc sweep`` on Dask (a client and its workers' tasks)
-    fly        ``stlc fly``: the compile, then the closed loop of ``flight`` (on the sweep's
+    flying     ``stlc fly``: the compile, then the closed loop of ``flight`` (on the sweep's
                Dask client); the flight options of the command line
     results    what the Python API hands out (``Plan``, ``Simulation``, sweep tables) and
                the commands it runs beyond ``compile`` (simulate, sweep, risk)
@@ -62,7 +62,7 @@ LAYERS: list[set[str]] = [
     {"simulation"},
     {"tools"},
     {"sweep"},
-    {"fly"},
+    {"flying"},
     {"results"},
     {"api"},
     {"bench"},

@@ -1,5 +1,5 @@
-"""The commands beyond ``compile`` from Python: ``simulate``, ``sweep`` and ``risk`` (what
-``stlc simulate``, ``stlc sweep`` and ``stlc risk`` do, returning data instead of files).
+"""The commands beyond ``compile`` from Python: ``simulate``, ``sweep``, ``risk`` and ``fly``
+(what ``stlc simulate``, ``stlc sweep``, ``stlc risk`` and ``stlc fly`` do, returning data).
 
 ``simulate`` returns a ``Simulation`` (the nominal ``Plan``, the executed trajectory, the
 event log and the executed verdict); ``sweep`` returns a table, one row per instance, with
@@ -269,3 +269,31 @@ def risk(program, mission: str | None = None, trajectory=None, *,
                                     m.span, "add `risk { K = 1000; case ... }` to the "
                                     "mission")])
     return out
+
+
+# ---------------------------------------------------------------- fly
+
+
+def fly(program, mission: str | None = None, out=None, *, wind=None,
+        turbulence: str | None = None, runs: int | None = None, seed: int = 0, noise=None,
+        time_limit: float | None = None) -> dict:
+    """Plan the mission and fly it closed loop, as ``stlc fly`` (``program``: a ``.stl``
+    path or a loaded program, flown as its file is written).  Writes the command's files
+    into ``out`` (default: a new temporary folder) and returns ``flight.json``'s contents:
+    ``plan``/``flown`` robustness, ``tracking`` errors and, with ``runs``, P(violation),
+    VaR and CVaR of the flown robustness."""
+    import json
+    import tempfile
+
+    from stlc.flying import fly_file
+
+    path = os.fspath(getattr(program, "file", program))
+    outdir = os.fspath(out) if out is not None else tempfile.mkdtemp(prefix="stlc-fly-")
+    fly_file(path, outdir, mission, wind=wind, turbulence=turbulence, runs=runs, seed=seed,
+             noise=noise, quiet=True, time_limit=time_limit)
+    record = os.path.join(outdir, "flight.json")
+    if not os.path.exists(record):  # no plan to fly: the plan's files say why
+        raise StlcError([Diagnostic("STL503", f"{path}: no plan to fly (see {outdir})",
+                                    Span(path, 1, 1, 1, 2), "plan it with stlc.compile first")])
+    with open(record, encoding="utf-8") as fh:
+        return json.load(fh)
