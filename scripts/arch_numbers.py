@@ -31,8 +31,8 @@ from test_layers import (ORDERERS, ORDERERS_MAY_IMPORT, _under,  # noqa: E402
                          environment_reads, record_subscripts, unit, violations)
 
 #: the family order of ``stlc/backends``: an import may only go to an equal or lower rank
-FAMILY_RANK = {"base": 0, "nlp": 1, "milp": 2, "team": 2, "replan": 3, "registry": 4,
-               "strategy": 5}
+FAMILY_RANK = {"base": 0, "nlp": 1, "milp": 2, "team": 2, "knots": 3, "replan": 3,
+               "registry": 4, "strategy": 5}
 SOLVER_CALLS = re.compile(r"^\s*(import highspy|import cvxpy|.*\bnlpsol\()", re.M)
 
 
