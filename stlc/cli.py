@@ -412,7 +412,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_fmt(args) -> int:
-    from stlc.tools import fmt
+    from stlc.tools import fmt_files as fmt
 
     return fmt.run(args.files, check=args.check)
 
