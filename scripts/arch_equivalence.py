@@ -1,6 +1,6 @@
-"""Record (or compare) the results the architecture refactor must not change (issue 18):
-exact robustness of the three shipped handovers and both bird-diverter specs, and the
-replanning events of the ``simulate`` demos of both papers.
+"""Record (or compare) the results an architecture refactor must not change: exact
+robustness of the three shipped handovers, both bird-diverter specs and the stlpy
+benchmarks (``specs/benchmarks``), and the replanning events of the ``simulate`` demos of both papers.
 
     python scripts/arch_equivalence.py --write OUT.json        # record
     python scripts/arch_equivalence.py --compare BEFORE.json   # re-run and compare (1e-9)
@@ -25,6 +25,13 @@ CASES = [
     ("compile", "specs/handover.stl", "handover_left"),
     ("compile", "specs/bird_diverter_2x7.stl", "bird_diverter_2x7"),
     ("compile", "specs/bird_diverter_4x11.stl", "bird_diverter_4x11"),
+    # the stlpy benchmarks
+    ("compile", "specs/benchmarks/door_puzzle.stl", "door_puzzle"),
+    ("compile", "specs/benchmarks/either_or.stl", "either_or"),
+    ("compile", "specs/benchmarks/narrow_passage.stl", "narrow_passage"),
+    ("compile", "specs/benchmarks/random_multitarget.stl", "random_multitarget"),
+    ("compile", "specs/benchmarks/reach_avoid.stl", "reach_avoid"),
+    ("compile", "specs/benchmarks/stepping_stones.stl", "stepping_stones"),
     ("simulate", "specs/handover.stl", "handover_left_tb"),
     ("simulate", "specs/bird_diverter_2x7.stl", "bird_diverter_2x7"),
     # a small takeover (the backup joins the executed team), and the same with a --set

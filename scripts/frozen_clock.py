@@ -15,7 +15,7 @@ import types
 
 
 def _freeze() -> None:
-    for name in ("stlc.backends.segment", "stlc.replan.segment"):
+    for name in ("stlc.backends.replan.segment", "stlc.replan.segment"):
         try:
             mod = importlib.import_module(name)
         except ImportError:

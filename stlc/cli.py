@@ -1,13 +1,12 @@
-"""Command line: ``stlc check | monitor | compile | simulate | risk | bench | fmt | lsp |
-explain`` (the language tools live in ``stlc.tools``).
+"""Command line: ``stlc check | monitor | compile | simulate | fly | risk | bench | fmt |
+lsp | explain`` (the language tools live in ``stlc.tools``).
 
 Exit codes (contract): 0 success, 1 the input is wrong (diagnostics printed, nothing
 written), 2 bad command-line usage, 3 ``compile`` found no satisfying plan, or
 ``simulate``'s executed trajectory did not keep its specs (report still written), 130
 interrupted by Ctrl-C (nothing written, earlier outputs left as they were; SIGTERM 143 and
-SIGHUP 129 alike), 141 the reader
-of stdout went away.  Bad input never shows a Python traceback; an internal error prints
-one line (set ``STLC_DEBUG=1`` for the traceback) and exits 4.
+SIGHUP 129 alike), 141 the reader of stdout went away.  Bad input never shows a Python
+traceback; an internal error prints one line (``STLC_DEBUG=1``: the traceback), exits 4.
 
 Every command runs in a worker thread with a large stack (``stlc.interrupt.run``): deep
 formulas recurse safely and Ctrl-C stops a running solve at once.
@@ -24,7 +23,7 @@ import threading
 import time
 import traceback
 
-from stlc.diagnostics import StlcError, render_all, to_json
+from stlc.diagnostics import StlcError, count_text, render_all, to_json
 from stlc.exitcodes import (EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED,
                             EXIT_OK, EXIT_UNSAT)
 from stlc.limits import source_text
@@ -55,17 +54,23 @@ class _Sub(argparse.ArgumentParser):
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="stlc", description="STL mission compiler for multirotor "
                                 "drones: check, monitor, compile (plan), assess risk.")
+    from stlc import __version__
+
+    p.add_argument("--version", action="version", version=f"stlc {__version__}",
+                   help="print the version and exit")
     sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND", parser_class=_Sub)
 
     c = sub.add_parser("check", help="parse and type-check .stl files")
-    c.add_argument("files", nargs="+", metavar="FILE")
-    c.add_argument("--format", choices=("text", "json"), default="text")
+    c.add_argument("files", nargs="+", metavar="FILE", help="the .stl files to check")
+    c.add_argument("--format", choices=("text", "json"), default="text",
+                   help="diagnostics as text (default) or one JSON object")
     c.add_argument("--deny-warnings", action="store_true", help="warnings are errors")
     _set_option(c)
 
     m = sub.add_parser("monitor", help="exact robustness of a file's specs on a trace")
-    m.add_argument("file", metavar="FILE")
-    m.add_argument("--trace", required=True, metavar="CSV")
+    m.add_argument("file", metavar="FILE", help="the .stl file whose specs are monitored")
+    from stlc.flying import add_log_options
+    add_log_options(m)
     m.add_argument("--json", action="store_true", help="print one JSON object")
     m.add_argument("--resample", metavar="DT", type=_seconds, default=None,
                    help="interpolate a log with a non-uniform time column onto steps of DT s")
@@ -76,9 +81,11 @@ def _parser() -> argparse.ArgumentParser:
     _set_option(m)
 
     k = sub.add_parser("compile", help="plan a trajectory for each mission and write a report")
-    k.add_argument("file", metavar="FILE")
-    k.add_argument("-o", "--out", metavar="OUTDIR", default=None)
-    k.add_argument("--mission", metavar="NAME", default=None)
+    k.add_argument("file", metavar="FILE", help="the .stl file")
+    k.add_argument("-o", "--out", metavar="OUTDIR", default=None,
+                   help="where the outputs go (default: reports/<mission>/)")
+    k.add_argument("--mission", metavar="NAME", default=None,
+                   help="the mission to compile (default: every mission of the file)")
     k.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     k.add_argument("--no-risk", action="store_true", help="skip the mission's risk cases")
     _budget_option(k)
@@ -93,9 +100,11 @@ def _parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
                        "failure, with online replanning")
-    s.add_argument("file", metavar="FILE")
-    s.add_argument("--mission", metavar="NAME", default=None)
-    s.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    s.add_argument("file", metavar="FILE", help="the .stl file")
+    s.add_argument("--mission", metavar="NAME", default=None,
+                   help="the mission to fly (needed when the file has several)")
+    s.add_argument("-o", "--out", metavar="OUTDIR", default=None,
+                   help="where the outputs go (default: reports/<mission>/)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     s.add_argument("--disturb", metavar="[DRONE@]T:DX,DY,DZ", action="append", default=[],
                    type=_disturbance, help="push the vehicle by (DX, DY, DZ) m at T s "
@@ -114,11 +123,17 @@ def _parser() -> argparse.ArgumentParser:
                    help="warm-start a replan from the nearest plan of a sweep's DIR")
     _set_option(s)
 
+    from stlc.flying import add_parser as add_fly
+    add_fly(sub, _set_option, _seconds)
+
     r = sub.add_parser("risk", help="risk analysis of an existing plan")
-    r.add_argument("file", metavar="FILE")
-    r.add_argument("--trajectory", required=True, metavar="CSV")
-    r.add_argument("--mission", metavar="NAME", default=None)
-    r.add_argument("-o", "--out", metavar="OUTDIR", default=None)
+    r.add_argument("file", metavar="FILE", help="the .stl file with the risk cases")
+    r.add_argument("--trajectory", required=True, metavar="CSV",
+                   help="the plan to assess (a trajectory.csv of `stlc compile`)")
+    r.add_argument("--mission", metavar="NAME", default=None,
+                   help="the mission whose risk cases run (default: the only one with any)")
+    r.add_argument("-o", "--out", metavar="OUTDIR", default=None,
+                   help="where risk.json goes (default: the trajectory's directory)")
     _budget_option(r)
     _set_option(r)
     rg = r.add_mutually_exclusive_group()
@@ -128,34 +143,38 @@ def _parser() -> argparse.ArgumentParser:
                     help="... or on an existing Dask cluster")
 
     w = sub.add_parser("sweep", help="plan one mission over a grid of --set values, on Dask")
-    w.add_argument("file", metavar="FILE")
-    w.add_argument("--mission", metavar="NAME", default=None)
+    w.add_argument("file", metavar="FILE", help="the .stl file")
+    w.add_argument("--mission", metavar="NAME", default=None,
+                   help="the mission to sweep (needed when the file has several)")
     w.add_argument("--vary", metavar="NAME=LO:HI:N", action="append", default=[],
                    help="an axis: N values from LO to HI (units as in the language)")
     w.add_argument("--random", metavar="N", type=int, default=None,
                    help="N uniform draws from the box of the --vary axes instead of a grid")
-    w.add_argument("--seed", type=int, default=0)
+    w.add_argument("--seed", type=int, default=0, help="seed of the --random draws")
     _set_option(w)
     g = w.add_mutually_exclusive_group()
     g.add_argument("--workers", metavar="K", type=int, default=None,
                    help="local cluster of K worker processes (default: the cores)")
     g.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="an existing Dask cluster, e.g. tcp://host:8786")
-    w.add_argument("-o", "--out", metavar="DIR", default=None)
-    w.add_argument("-q", "--quiet", action="store_true")
+    w.add_argument("-o", "--out", metavar="DIR", default=None,
+                   help="where the sweep's outputs go (default: reports/<mission>-sweep/)")
+    w.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     w.add_argument("--time-limit", metavar="SECONDS", type=_seconds, default=None,
                    help="each instance's limit: a stopped instance is a `stopped` row")
 
-    b = sub.add_parser("bench", help="benchmarks (monitor, compile)")
-    b.add_argument("args", nargs=argparse.REMAINDER)
+    b = sub.add_parser("bench", help="benchmarks (monitor, compile, suite)")
+    b.add_argument("args", nargs=argparse.REMAINDER,
+                   help="`monitor`, `compile FILE.stl ...` or `suite` (see `stlc bench -h`)")
 
     f = sub.add_parser("fmt", help="format .stl files in place (`-`: stdin to stdout)")
-    f.add_argument("files", nargs="+", metavar="FILE")
+    f.add_argument("files", nargs="+", metavar="FILE",
+                   help="the .stl files to format in place (`-`: stdin to stdout)")
     f.add_argument("--check", action="store_true", help="write nothing; exit 1 and name "
                    "the files that would change")
     sub.add_parser("lsp", help="the language server (LSP over stdio, for editors)")
     e = sub.add_parser("explain", help="the long explanation of an error code")
-    e.add_argument("code", metavar="STLxxx")
+    e.add_argument("code", metavar="STLxxx", help="an error code, e.g. STL101")
     return p
 
 
@@ -233,7 +252,9 @@ def _failure(text: str) -> tuple[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from stlc import interrupt
+    from stlc import interrupt, settings
+
+    settings.limit_solver_threads()  # one MUMPS/BLAS thread each, before they load
 
     parser = _parser()
     args = parser.parse_args(argv)
@@ -248,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
     limits.set_max_memory(getattr(args, "max_memory", None))
     cmd = {"check": cmd_check, "monitor": cmd_monitor, "compile": cmd_compile,
            "simulate": cmd_simulate, "risk": cmd_risk, "bench": cmd_bench,
-           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep}[args.cmd]
+           "fmt": cmd_fmt, "explain": cmd_explain, "sweep": cmd_sweep,
+           "fly": cmd_fly}[args.cmd]
     if threading.current_thread() is threading.main_thread():
         interrupt.on_termination()  # SIGTERM/SIGHUP: Ctrl-C's contract, exit 143/129
     try:
@@ -271,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except Exception as e:  # noqa: BLE001 - the last line of defence
-        if os.environ.get("STLC_DEBUG"):
+        if settings.debug():
             traceback.print_exc()
         print(f"stlc: internal error: {type(e).__name__}: {e}\n"
               "  = help: this is a bug in stlc; rerun with STLC_DEBUG=1 for details",
@@ -294,10 +316,7 @@ def _sources(diags) -> dict[str, str]:
 def _print_diags(e: StlcError, sources: dict[str, str] | None) -> None:
     srcs = sources if sources is not None else _sources(e.diagnostics)
     print(render_all(e.diagnostics, srcs), file=sys.stderr)
-    n = sum(1 for d in e.diagnostics if d.severity == "error")
-    w = len(e.diagnostics) - n
-    print(f"stlc: {n} error{'s' if n != 1 else ''}" if n or not w else
-          f"stlc: {w} warning{'s' if w != 1 else ''}", file=sys.stderr)
+    print(f"stlc: {count_text(e.diagnostics)}", file=sys.stderr)
 
 
 def cmd_check(args) -> int:
@@ -324,29 +343,28 @@ def cmd_monitor(args) -> int:
     from stlc.analysis.vacuity import vacuous
     from stlc.diagnostics import emit_warnings
     from stlc.pipeline import load, monitor_trace, monitored_formulas
+    from stlc.semantics.specs import mission_named
+    from stlc.strictjson import strict_dumps
 
     loaded = load(args.file, args.sets)
     program = loaded.program
-    trace = read_trace(args.trace, resample=args.resample)
     if args.mission is not None:
-        from stlc.semantics.specs import mission_named
-
         mission_named(args.file, program, args.mission)
-    res = monitor_trace(program, trace, args.mission)
-    found = vacuous(monitored_formulas(program, args.mission), trace.dt, trace.channels, program.params,
-                    trace.n)
+    if args.log is not None:
+        from stlc.flying import monitor_log  # the flight-log readers load only for --log
+        trace, res = monitor_log(args, program)
+    else:
+        trace = read_trace(args.trace, resample=args.resample)
+        res = monitor_trace(program, trace, args.mission)
+    found = vacuous(monitored_formulas(program, args.mission), trace.dt, trace.channels,
+                    program.params, trace.n)
     emit_warnings(loaded.warnings + found, False, {args.file: program.source})
-    for v in res.values():  # a NaN robustness (e.g. sqrt of a negative value) is undefined
-        if math.isnan(v["robustness"]):
-            v["satisfied"] = None
     if trace.resampled is not None:
         r = trace.resampled
         print(f"note: resampled {r['samples_in']} samples onto steps of {r['dt']:g} s "
               f"(linear interpolation); the largest gap in the log is {r['largest_gap']:g} s "
               f"after t = {r['gap_at']:g} s", file=sys.stderr)
     if args.json:  # strict JSON: ±∞ as "inf"/"-inf", undefined (NaN) as null
-        from stlc.strictjson import strict_dumps
-
         print(strict_dumps({"specs": res, **({"resampled": trace.resampled}
                                              if trace.resampled is not None else {})}))
     else:
@@ -380,6 +398,12 @@ def cmd_simulate(args) -> int:
                          moves=[args.move] if args.move else None, library=args.library)
 
 
+def cmd_fly(args) -> int:
+    from stlc.flying import command
+
+    return command(args)
+
+
 def cmd_risk(args) -> int:
     from stlc.pipeline import risk_file
 
@@ -387,14 +411,11 @@ def cmd_risk(args) -> int:
         return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
                          sets=args.sets)
     from stlc.analysis.risk_parallel import distributed
-    from stlc.sweep.run import _client, _close
+    from stlc.sweep.run import dask_session
 
-    client, cluster = _client(args.workers, args.scheduler, args.file)
-    try:
+    with dask_session(args.workers, args.scheduler, args.file) as client:
         return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
                          sets=args.sets, shared=distributed(client))
-    finally:
-        _close(client, cluster)
 
 
 def cmd_sweep(args) -> int:
@@ -412,9 +433,9 @@ def cmd_bench(args) -> int:
 
 
 def cmd_fmt(args) -> int:
-    from stlc.tools import fmt_files as fmt
+    from stlc.tools import fmt_command
 
-    return fmt.run(args.files, check=args.check)
+    return fmt_command.run(args.files, check=args.check)
 
 
 def cmd_explain(args) -> int:

@@ -19,12 +19,12 @@ when the solvers' share has run out (as ``stlc.interrupt`` does for Ctrl-C; a C 
 finishes first).  The pipeline then writes the best plan it has — with nothing found yet,
 the vehicles hovering at their start — judged by the exact monitor.
 
-Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (issue 23,
-"no solve without a time limit"), so no NLP solve, stage or build runs unbounded; a run that
+Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (no solve
+without a time limit), so no NLP solve, stage or build runs unbounded; a run that
 reaches it ends like any stopped run (best verified plan written, exit 3), and its notes say
 the limit was the default.  It is generous — 30× the slowest shipped mission (10–60 s on a
 loaded two-core machine) — so it never binds a mission that plans normally; the
-developers' ``STLC_DEFAULT_TIME_LIMIT`` (seconds) overrides it (tests).
+developers' ``STLC_DEFAULT_TIME_LIMIT`` (seconds, read by ``stlc.settings``) overrides it.
 
 Ctrl-C is not a time limit: it still stops at once and writes nothing (``stlc.interrupt``).
 """
@@ -99,11 +99,9 @@ def clear() -> None:
 def default_limit() -> float:
     """``DEFAULT_LIMIT_S``, or the developers' ``STLC_DEFAULT_TIME_LIMIT`` when it is a
     positive number of seconds."""
-    with contextlib.suppress(ValueError):
-        x = float(os.environ.get("STLC_DEFAULT_TIME_LIMIT", ""))
-        if math.isfinite(x) and x > 0:
-            return x
-    return DEFAULT_LIMIT_S
+    from stlc import settings
+
+    return settings.default_time_limit(DEFAULT_LIMIT_S)
 
 
 def is_default() -> bool:
@@ -145,7 +143,7 @@ def limited(seconds: float | None, start: float | None = None,
 @contextlib.contextmanager
 def serial() -> Iterator[None]:
     """One planning at a time per process: the solvers' cached NLPs (CasADi/IPOPT objects,
-    ``stlc.backends.nlp_cache``) and this module's watchdog are process-wide, and two
+    ``stlc.backends.nlp.cache``) and this module's watchdog are process-wide, and two
     threads solving one cached NLP at once corrupt its memory (the interpreter aborts).  A
     second thread that plans (``stlc.compile`` from a thread pool) waits for the first:
     the API is safe under threads, and serialised; for parallel planning use processes

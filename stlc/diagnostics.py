@@ -37,7 +37,7 @@ def source_lines(text: str) -> list[str]:
     return lines if text else []
 
 
-#: every code the tool can emit, with a one-line description (README lists these)
+#: every code the tool can emit, with a one-line description (docs/errors.md lists these)
 CODES: dict[str, str] = {
     # syntax
     "STL001": "unexpected character",
@@ -85,6 +85,7 @@ CODES: dict[str, str] = {
     "STL502": "the solver failed",
     "STL503": "no task assignment exists (capacity, stations, reach or horizon)",
     "STL504": "no plan can satisfy the mission: its specs conflict (proved infeasible)",
+    "STL505": "the start state cannot meet the threshold κ: no plan exists",
     # input files (traces, trajectories)
     "STL601": "cannot read file",
     "STL602": "malformed trace",
@@ -99,6 +100,7 @@ CODES: dict[str, str] = {
     "STLW02": "an implication holds only vacuously on the plan",
     "STLW03": "a region lies outside the workspace",
     "STLW04": "declared and never used",
+    "STLW05": "one threshold κ over predicates measured in different units",
 }
 
 
@@ -370,5 +372,13 @@ def emit_warnings(warnings: list[Diagnostic], deny: bool,
             except OSError:
                 pass
     print(render_all(warnings, sources), file=sys.stderr)
-    n = len(warnings)
-    print(f"stlc: {n} warning{'s' if n != 1 else ''}", file=sys.stderr)
+    print(f"stlc: {count_text(warnings)}", file=sys.stderr)
+
+
+def count_text(diags: list[Diagnostic]) -> str:
+    """``1 error, 2 warnings``: the diagnostics counted as they are shown (by severity)."""
+    n = sum(1 for d in diags if d.severity == "error")
+    w = len(diags) - n
+    parts = [f"{k} {word}{'s' if k != 1 else ''}" for k, word in ((n, "error"), (w, "warning"))
+             if k]
+    return ", ".join(parts) or "0 errors"

@@ -1,5 +1,4 @@
-"""Resource limits: what stlc refuses before allocating (issue 23, "budgets before
-allocation").
+"""Resource limits: what stlc refuses before allocating (budgets before allocation).
 
 * Input files are read with a size limit (``read_limited``): a mission file above
   ``MAX_SOURCE_BYTES``, a trace above ``MAX_TRACE_BYTES`` is STL601 at line 1, after reading

@@ -21,6 +21,7 @@ from stlc.diagnostics import Diagnostic, Span, StlcError, emit_warnings
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
 from stlc.limits import source_text
+from stlc.planning.record import StopReason
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
 
@@ -58,6 +59,9 @@ def check_paths(paths: list[str], sets: list[str] | tuple[str, ...] = ()
         try:
             loaded = load(p, sets)
             diags.extend(loaded.warnings)
+            from stlc.analysis.hopeless import hopeless
+
+            diags.extend(hopeless(loaded.program))  # a start below κ: no plan exists
             sources[p] = loaded.program.source
         except StlcError as e:
             diags.extend(e.diagnostics)
@@ -106,35 +110,10 @@ def monitor_trace(program: model.Program, trace, mission: str | None = None
 
 def backend_chain(problem, quiet: bool = True, backend: str | None = None) -> list:
     """The backends that plan ``problem``, in order (seed first), chosen from the registry
-    by capabilities (``stlc.backends.select``) or forced by ``backend``."""
-    from stlc.backends.select import select
+    by capabilities (``stlc.backends.strategy``) or forced by ``backend``."""
+    from stlc.backends.strategy import select
 
     return select(problem, backend, quiet).backends
-
-
-def _team_comparisons(sols: list) -> None:
-    """A team plan is shown beside its seed ("MILP only", paper B Fig. 8), first; the
-    refinement already added the standard plan of a ``compare`` variant (Fig. 11)."""
-    from stlc.planning.solution import Comparison
-
-    seed, final = sols[0], sols[-1]
-    final.comparisons.insert(0, Comparison("MILP only", dict(seed.channels)))
-    final.timing.update({k: v for k, v in seed.timing.items() if k in ("milp_s", "seed_s")})
-    final.solver["seed"] = dict(seed.solver)
-    if seed.solver.get("assignment") == "greedy":
-        final.notes.append("the task-assignment MILP stopped on its time budget (not "
-                           "converged): the routes come from the heuristic (greedy start + "
-                           "local search, own station per drone), not optimal")
-
-
-def _check_budget(problem, backends) -> None:
-    """Before building: refuse (STL606) a trajectory NLP that cannot fit the memory
-    budget (a chain with the CasADi NLP; the team chain plans on waypoints)."""
-    from stlc.backends.casadi_backend import CasadiNlp
-    from stlc.planning.budget import check_nlp
-
-    if any(isinstance(b, CasadiNlp) for b in backends):
-        check_nlp(problem, problem.mission.span)
 
 
 def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
@@ -153,146 +132,17 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
 
 def _plan(program, mission, *, quiet, step, horizon, backend, values, chain):
     from stlc.analysis.vacuity import plan_warnings
-    from stlc.backends.select import Chain, select
+    from stlc.backends import strategy
     from stlc.planning.fallback import time_limited
     from stlc.planning.problem import from_mission
 
     problem = from_mission(program, mission, step=step, horizon=horizon, values=values)
-    chain = select(problem, backend, quiet) if chain is None else \
-        Chain("library", list(chain), True)
-    _check_budget(problem, chain.backends)
-    if not quiet:
-        print(f"{mission.name}: chain `{chain.name}`"
-              f"{' (forced)' if chain.forced else ''}: "
-              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
-    sol = _run_verified(problem, chain)
-    sol = _next_choices(problem, chain, sol, quiet)
-    if _falls_back(chain, sol):
-        sol = _fallback(problem, sol, quiet)
-    if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
-        from stlc.backends.milp_conflict import explain_infeasible
-        from stlc.planning.frame import to_local
-
-        explain_infeasible(to_local(problem)[0], sol, quiet=quiet)  # proved in local numbers
+    chain = strategy.select(problem, backend, quiet) if chain is None else \
+        strategy.Chain("library", list(chain), True)
+    sol = strategy.plan(problem, chain, quiet)
     time_limited(sol)
     sol.diagnostics.extend(plan_warnings(problem, sol))
     return problem, sol
-
-
-def _run_verified(problem, chain):
-    """Run ``chain`` on ``problem`` and judge its plan with the exact monitor; a watchdog cut
-    (the run's time limit) gives the hover plan, judged the same way."""
-    from stlc.backends.base import run_chain
-    from stlc.backends.select import chain_record
-    from stlc.planning.fallback import NoPlanFound, fallback, not_found
-    from stlc.planning.frame import run_local
-    from stlc.planning.verify import verify
-
-    try:  # planned in a well-scaled local frame, mapped back (``stlc.planning.frame``)
-        sol, sols = run_local(run_chain, problem, chain.backends)
-    except deadline.TimeLimitReached:  # the watchdog cut a build or the guess
-        deadline.caught()
-        sol, sols = fallback(problem), []
-    except NoPlanFound as e:  # a planner's own model: "no plan found", never "none exists"
-        sol, sols = not_found(problem, e), []
-    if len(sols) > 1 and sols[0].routes:
-        _team_comparisons(sols)
-    sol.solver["chain"] = chain_record(chain, sols)
-    t0 = time.perf_counter()
-    verify(problem, sol)
-    sol.timing["verify_s"] = time.perf_counter() - t0
-    return sol
-
-
-NEXT_CHOICES = 2  #: further seeds tried when the NLP's plan from a MILP seed misses κ
-
-
-def _next_choices(problem, chain, sol, quiet: bool):
-    """The NLP planned from a MILP seed missed κ: plan again from other seeds — the local
-    kinematic guess (the seed of the `kinematic` chain: a class the MILP's coarse, relaxed
-    path did not choose), then the next-best discrete choice (the MILP seed with a no-good
-    cut on its choices for the conjuncts the plan violates) — at most ``NEXT_CHOICES`` and
-    within the time limit; the verified plan with the larger exact robustness is kept, and
-    the record lists every try.  Any seed backend with ``next_seed`` (and its
-    ``NEXT_LABEL``) takes part: a sweep's plan library gives this instance's own seed."""
-    from stlc.backends.casadi_backend import KinematicGuess
-    from stlc.backends.select import Chain
-
-    seed = chain.backends[0] if chain.backends else None
-    if sol.status in ("satisfied", "infeasible") or not hasattr(seed, "next_seed"):
-        return sol
-    others = []
-    if getattr(seed, "choices", None):  # the MILP chose the first path: the local guess
-        others.append(("the kinematic guess", KinematicGuess()))  # is another class
-    nxt = seed.next_seed(problem, sol.channels)
-    if nxt is not None:
-        others.append((seed.NEXT_LABEL, nxt))
-    first = solve_cost(sol)
-    tries = []
-    for label, other_seed in others[:NEXT_CHOICES]:
-        if sol.status == "satisfied" or deadline.solve_expired():
-            break
-        if not quiet:
-            print(f"{problem.mission.name}: exact robustness {sol.robustness_exact:+.4f} < κ; "
-                  f"planning again from {label}", file=sys.stderr)
-        other = _run_verified(problem, Chain(chain.name, [other_seed, *chain.backends[1:]],
-                                             chain.forced))
-        tries.append({"seed": label, "exact": other.robustness_exact,
-                      "status": str(other.status), **solve_cost(other)})
-        a, b = sol.robustness_exact, other.robustness_exact
-        if _better(b, a):
-            other.notes.append(f"planned from {label}: the plan from the {seed.name} had "
-                               f"exact robustness {a:.6g}")
-            sol = other
-    if tries:
-        sol.solver["chain"]["next_choices"] = tries
-        sol.solver["chain"]["first_try"] = first  # what the first seed's plan cost
-    return sol
-
-
-def solve_cost(sol) -> dict:
-    """What planning ``sol`` cost: its IPOPT iterations and solve seconds."""
-    return {"iterations": int(sol.solver.get("iterations", 0) or 0),
-            "solve_s": float(sol.timing.get("solve_s", 0.0))}
-
-
-def _better(b: float, a: float) -> bool:
-    """Exact robustness ``b`` strictly beats ``a`` (NaN-safe: a NaN never wins, anything
-    beats a NaN)."""
-    return b == b and not (a == a and a >= b)
-
-
-def _falls_back(chain, sol) -> bool:
-    """An exact chain chosen by capability that stopped without a satisfying plan and
-    without a proof of its optimum (a time limit, no incumbent) hands the problem to the
-    general chain: a point-mass mission too large for the MILP's budget is still planned
-    (locally) as before the exact backend existed.  Not once the run's time limit is out."""
-    return (chain.name == "milp" and not chain.forced and sol.status != "satisfied"
-            and not sol.solver.get("converged", False) and not deadline.solve_expired())
-
-
-def _fallback(problem, first, quiet: bool):
-    """Plan ``problem`` with the ``nlp`` chain after an unconverged exact chain; keep the
-    verified plan with the larger exact robustness (ties: the exact chain's).  Both plans
-    are judged by the exact monitor; the record says what ran."""
-    from stlc.backends.select import select
-
-    chain = select(problem, "nlp", quiet)
-    if not quiet:
-        print(f"{problem.mission.name}: the exact MILP stopped without a satisfying plan "
-              f"({first.solver.get('return_status')}); falling back to chain `nlp`: "
-              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
-    sol = _run_verified(problem, chain)
-    sol.solver["chain"]["fallback_from"] = first.solver["chain"]
-    a, b = first.robustness_exact, sol.robustness_exact
-    if _better(b, a):  # the NLP's plan is strictly better
-        sol.notes.append(f"the exact MILP stopped without a satisfying plan "
-                         f"({first.solver.get('return_status')}); this plan is the `nlp` "
-                         f"chain's (local, not a global optimum)")
-        return sol
-    first.notes.append("the `nlp` chain, tried after the MILP stopped, found no better plan "
-                       f"(exact robustness {b:.6g})")
-    return first
 
 
 def plan_in_time(program: model.Program, mission: model.Mission, *, quiet: bool = True,
@@ -345,7 +195,7 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     """``stlc compile``: every selected mission planned, verified, assessed, written.
     ``time_limit`` (s, from the start of the command; shared by the missions in turn)
     stops the search and writes the best verified plan (``stlc.deadline``); ``backend``
-    forces a chain (``stlc.backends.select``)."""
+    forces a chain (``stlc.backends.strategy``)."""
     from stlc.output import compile as outputs
 
     t0 = time.perf_counter()
@@ -354,6 +204,11 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
     program = loaded.program
     missions = select_missions(path, program, mission)
     emit_warnings(loaded.warnings, deny_warnings, {path: program.source})
+    from stlc.analysis.hopeless import hopeless
+
+    doomed = hopeless(program, missions)  # before any planning: a start below κ
+    if doomed:
+        raise StlcError(doomed)
     several = len(missions) > 1
     base = out if out is not None else "reports"
     outdirs = {m.name: os.path.join(base, m.name) if (several or out is None) else base
@@ -380,20 +235,21 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
             problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
                                         values=loaded.values)
             sol.timing.update(loaded.timing)
-            if risk and m.risk is not None and sol.solver.get("stopped_by") == "time_limit":
+            if risk and m.risk is not None and sol.solver.stopped_by == StopReason.TIME_LIMIT:
                 sol.notes.append("the risk cases were not assessed: the time limit ran out "
                                  "(`stlc risk` assesses them on trajectory.csv)")
             elif risk and m.risk is not None:
                 assess_risk(program, m, sol, problem)
         sol.timing["total_s"] = time.perf_counter() - t1 + sum(loaded.timing.values())
         outdir = outdirs[m.name]
-        found = list(sol.diagnostics)  # the plan's own warnings (STLW02)
+        # the plan's own warnings (STLW02); its errors (STL504) are in the summary
+        found = [d for d in sol.diagnostics if d.severity == "warning"]
         sol.diagnostics[:0] = loaded.warnings  # the report lists the file's too
         outputs.write_outputs(outdir, program, m, sol)
         if not quiet or sol.status != "satisfied":
             outputs.summary(sol, outdir)
-        if sol.status != "satisfied":
-            code = EXIT_UNSAT
+        if sol.status != "satisfied" or outputs.risk_levels_failed(sol):
+            code = EXIT_UNSAT  # a risk level of the mission not met counts as unsatisfied
         if found:  # after the outputs: with --deny-warnings the plan is not accepted (exit 3)
             emit_warnings([replace(w, severity="error") for w in found] if deny_warnings
                           else found, False, {path: program.source})

@@ -124,6 +124,33 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
                                     "which to simulate", Span(path, 1, 1, 1, 2),
                                     "pass --mission " + " | ".join(x.name for x in missions))])
     m = missions[0]
+    events = flight_events(program, m, disturbances, failures, moves)
+    outdir = out if out is not None else os.path.join("reports", m.name)
+    preflight(outdir, mission_span(path, m))
+    program, _, sol, sim = fly(program, m, events, values=loaded.values,
+                               library=library, time_limit=time_limit, quiet=quiet,
+                               started=t0)
+    sol.timing.update(loaded.timing)
+    sol.timing["total_s"] = time.perf_counter() - t0
+    write_simulation(outdir, program, m, sol, sim)
+    if sol.status != "satisfied":  # the nominal plan's verdict counts, as in `compile`
+        outputs.summary(sol, outdir)
+    ok = simulation_summary(sim, outdir, quiet) and sol.status == "satisfied"
+    if not quiet:
+        print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return EXIT_OK if ok else EXIT_UNSAT
+
+
+def flight_events(program: model.Program, m: model.Mission, disturbances: list | None,
+                  failures: list | None, moves: list | None) -> tuple:
+    """The checked events of a simulation (raises ``StlcError`` before any solve):
+    (moves, disturbances, failures, replanning configuration)."""
+    from stlc.analysis.hopeless import hopeless
+
+    path = program.file
+    doomed = hopeless(program, [m])  # a start below κ: no nominal plan exists
+    if doomed:
+        raise StlcError(doomed)
     if not (moves or disturbances or failures) and m.simulate and m.simulate.moves:
         moves = [_file_move(program, mv) for mv in m.simulate.moves]  # checked with the file
     elif moves:  # an operator move (paper A §6): replan.move, not disturbances
@@ -134,52 +161,55 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
         dist, fails = [], []
     else:
         dist, fails = simulation_events(path, program, m, disturbances, failures)
-    outdir = out if out is not None else os.path.join("reports", m.name)
-    preflight(outdir, mission_span(path, m))
     cfg = _replan_defaults(program, m, m.replan or model.ReplanConfig())
     if dist:
         _check_kept(program, m, cfg)
+    return list(moves or []), dist, fails, cfg
+
+
+def fly(program: model.Program, m: model.Mission, events: tuple, *, values=None,
+        library: str | None = None, time_limit: float | None = None, quiet: bool = True,
+        started: float | None = None):
+    """Plan ``m`` and fly it through ``events`` (``flight_events``): returns (program —
+    moved when a human moved —, PlanningProblem, Solution, SimulationResult)."""
+    moves, dist, fails, cfg = events
+    t0 = time.perf_counter() if started is None else started
     # the time limit bounds planning the nominal plan (replans have their budget t_c)
     with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),
                           start=time.monotonic() - (time.perf_counter() - t0)):
-        problem, sol = plan_in_time(program, m, quiet=quiet, values=loaded.values)
-    sol.timing.update(loaded.timing)
+        problem, sol = plan_in_time(program, m, quiet=quiet, values=values)
     t1 = time.perf_counter()
     # replans solve too: under the default limit (stlc.deadline), no watchdog
     with deadline.bounded():
         try:
             if moves:
-                from stlc.backends.move_replan import replan_rest
+                from stlc.backends import strategy
                 from stlc.replan.move import moved_program, simulate_move
 
-                sim = simulate_move(problem, sol, moves[0], library, replanner=replan_rest)
+                sim = simulate_move(problem, sol, moves[0], library,
+                                    replanner=strategy.replanner("move"))
                 program = moved_program(program, moves[0])
             elif fails:
-                from stlc.backends.backup import TakeoverBackend
+                from stlc.backends import strategy
                 from stlc.replan.takeover import simulate_failure
 
-                sim = simulate_failure(problem, sol, fails[0], cfg, planner=TakeoverBackend())
+                sim = simulate_failure(problem, sol, fails[0], cfg,
+                                       planner=strategy.replanner("takeover"))
             else:
-                from stlc.backends.segment import SegmentBackend
+                from stlc.backends import strategy
                 from stlc.replan.disturb import simulate_disturbances
 
-                sim = simulate_disturbances(problem, sol, dist, cfg, segment=SegmentBackend)
+                sim = simulate_disturbances(problem, sol, dist, cfg,
+                                            segment=strategy.replanner("segment"))
         except ValueError as e:  # the replanning modules' input errors (subclasses)
             if type(e) is ValueError:
                 raise
             span = getattr(getattr(e, "disturbance", None), "span", None)
             raise StlcError([Diagnostic("STL401", f"cannot simulate `{m.name}`: {e}",
                                         span if span is not None and span.known else m.span,
-                                        "see `stlc simulate` in the README")]) from None
+                                        "see `stlc simulate` in docs/cli.md")]) from None
     # what the replanning promises: the kept specs (paper A: `safety`); a takeover keeps the
     # whole mission, judged over the executed team
     sim.kept = ("mission",) if fails or moves else (tuple(cfg.specs) or ("mission",))
     sol.timing["simulate_s"] = time.perf_counter() - t1
-    sol.timing["total_s"] = time.perf_counter() - t0
-    write_simulation(outdir, program, m, sol, sim)
-    if sol.status != "satisfied":  # the nominal plan's verdict counts, as in `compile`
-        outputs.summary(sol, outdir)
-    ok = simulation_summary(sim, outdir, quiet) and sol.status == "satisfied"
-    if not quiet:
-        print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    return EXIT_OK if ok else EXIT_UNSAT
+    return program, problem, sol, sim

@@ -1,4 +1,4 @@
-"""The Python API (``import stlc``): the README's example runs, ``import stlc`` stays cheap,
+"""The Python API (``import stlc``): the example of docs/api.md runs, ``import stlc`` stays cheap,
 errors carry located diagnostics, ``set=`` overrides constants, ``monitor`` takes a CSV or
 arrays; and the JSON Schemas of ``stlc/schemas/`` accept real outputs (jsonschema)."""
 
@@ -29,10 +29,9 @@ def run(args, cwd=ROOT, **kw):
                           env={**os.environ, **env_path}, **kw)
 
 
-def test_the_readme_example_runs(tmp_path):
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("## Python API"):text.index("## Language tools")]
-    (code,) = re.findall(r"```python\n(.*?)```", section, re.S)
+def test_the_docs_example_runs(tmp_path):
+    text = (ROOT / "docs/api.md").read_text(encoding="utf-8")
+    code = re.findall(r"```python\n(.*?)```", text, re.S)[0]
     code = code.replace('"tests/missions/hexa_climb.stl"', repr(str(CLIMB)))
     r = run([sys.executable, "-c", code], cwd=tmp_path)
     assert r.returncode == 0, r.stderr
@@ -46,7 +45,8 @@ def test_the_readme_example_runs(tmp_path):
     # the files of `stlc compile -o out`, with the directory's ownership record
     # (`.stlc-outputs.json`: a later write replaces only what stlc wrote there)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
-        ".stlc-outputs.json", "report.html", "solution.json", "trajectory.csv"]
+        ".stlc-outputs.json", "flight", "report.html", "rosbag2", "solution.json",
+        "trajectory.csv"]
 
 
 def test_import_is_cheap():

@@ -1,4 +1,4 @@
-"""Architecture rules of the ``stlc`` package (issue 8), checked on the source with ``ast``.
+"""Architecture rules of the ``stlc`` package, checked on the source with ``ast``.
 
 * every module is at most ``MAX_LINES`` lines long;
 * only the vehicle registry (``stlc/vehicles/``) tests whether a vehicle is a
@@ -6,7 +6,7 @@
 * every module opens with a docstring;
 * no module outside ``stlc/vehicles/`` compares a string with a vehicle kind
   (``kind == "multirotor"``, ``b.model != "point_mass"``, ``kind in ("point_mass", …)``):
-  passes ask the model (``stlc.vehicles.model_of(v)``) what it can do (issue 18).
+  passes ask the model (``stlc.vehicles.model_of(v)``) what it can do.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from stlc.backends import registry
+from stlc.backends.registry import registry
 from stlc.backends.base import Backend, Capabilities, SolverStatus, run_chain
 from stlc.diagnostics import StlcError
 from stlc.pipeline import load

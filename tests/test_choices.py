@@ -1,4 +1,4 @@
-"""Fixed disjunction choices (``stlc.backends.choices``) against the exact monitor.
+"""Fixed disjunction choices (``stlc.backends.nlp.choices``) against the exact monitor.
 
 Each branch a_i of an ``or`` of predicates becomes ``a_i − (1−mix)(1−c_i)·OFF``.  By hand:
 with mix = 1 the branches are as written; with mix = 0 the ``or`` is max(chosen branch,
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from stlc.analysis import monitor
-from stlc.backends import choices
+from stlc.backends.nlp import choices
 from stlc.semantics import ir
 
 N = 40

@@ -25,7 +25,8 @@ from stlc.semantics import nnf
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
-OUTPUTS = {"report.html", "solution.json", "trajectory.csv", ".stlc-outputs.json"}
+OUTPUTS = {"report.html", "solution.json", "trajectory.csv", ".stlc-outputs.json",
+           "flight", "rosbag2"}  # the flight-stack folders (stlc.flight.export)
 
 POINT_MASS = """\
 vehicle p : point_mass {
@@ -209,7 +210,8 @@ def test_unsatisfiable_mission_exits_3_and_still_reports(tmp_path, capsys):
     assert main(["compile", str(stl), "-o", str(out), "-q"]) == 3
     cap = capsys.readouterr()
     # even with -q the failure is explained: x ≥ 100 m in 3 s is proved impossible
-    assert "far: infeasible" in cap.out
+    assert "far: no plan exists (proved; best attempt: exact ρ = -97.2500 < κ = 0)" in cap.out
+    assert cap.err.count("no plan can satisfy mission `far`") == 1  # said once
     assert "error[STL504]: no plan can satisfy mission `far`: spec `go` cannot hold" in cap.err
     assert files(out) == OUTPUTS
     exact, sol = recheck(stl, out, "far")

@@ -1,4 +1,4 @@
-"""The structured derivatives (``stlc.backends.derivatives``) equal CasADi's own.
+"""The structured derivatives (``stlc.backends.nlp.derivatives``) equal CasADi's own.
 
 The NLP that ``casadi_nlp.build`` hands to nlpsol is captured; nlpsol then builds a
 reference solver from the same NLP *without* the structured functions (it differentiates
@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from stlc.backends import casadi_nlp
+from stlc.backends.nlp import model as casadi_nlp
 from stlc.pipeline import load
 from stlc.planning.problem import from_mission
 

@@ -24,7 +24,7 @@ import pytest
 from stlc import vehicles
 from stlc.backends.base import (ALL_FUNCTIONS, ALL_NODES, Backend, Capabilities,
                                 SolverStatus, run_chain)
-from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
+from stlc.backends.nlp.backend import CasadiNlp, KinematicGuess
 from stlc.diagnostics import Span
 from stlc.planning.problem import from_mission
 from stlc.planning.solution import Solution, Verdict

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from stlc.diagnostics import StlcError
-from stlc.tools import fmt_files
+from stlc.tools import fmt_command
 from stlc.tools.fmt import format_text
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -110,7 +110,7 @@ def test_a_folder_that_refuses_new_files_is_a_diagnostic(tmp_path, monkeypatch, 
         raise PermissionError(13, "Permission denied")
 
     monkeypatch.setattr(tempfile, "mkstemp", refuse)  # a read-only folder (we may be root)
-    assert fmt_files.run([str(f)]) == 1
+    assert fmt_command.run([str(f)]) == 1
     err = capsys.readouterr().err
     assert "error[STL605]" in err and "Permission denied" in err
     assert f.read_text() == UNFORMATTED

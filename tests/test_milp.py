@@ -6,7 +6,6 @@ trajectory has a higher robustness (brute force through the same discrete model)
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
@@ -22,8 +21,8 @@ from hypothesis import strategies as st
 
 from stlc.analysis import monitor
 from stlc.backends.base import run_chain
-from stlc.backends.milp_backend import ExactMilp
-from stlc.backends.select import select
+from stlc.backends.milp.backend import ExactMilp
+from stlc.backends.strategy import select
 from stlc.diagnostics import StlcError
 from stlc.pipeline import load
 from stlc.planning.problem import from_mission
@@ -107,6 +106,12 @@ def _random_plans(problem, count: int, seed: int) -> list[dict]:
     return out
 
 
+def _one_hot(log: bool) -> int:
+    """The widest disjunction encoded one-hot: 2 (the logarithmic encoding from three
+    operands on) or every one."""
+    return 2 if log else 1_000_000
+
+
 @pytest.mark.parametrize("log", [False, True])
 def test_the_plan_is_the_point_of_the_optimum(base_problem, log):
     """Found by the property test below (log encoding): HiGHS returned the MIP start's point
@@ -118,8 +123,7 @@ def test_the_plan_is_the_point_of_the_optimum(base_problem, log):
                                            "b"))))
     req = nnf.normalize(f)
     problem = replace(base_problem, requirement=req)
-    with _encoding(log):
-        sol, _ = run_chain(problem, [ExactMilp(time_limit=60)])
+    sol, _ = run_chain(problem, [ExactMilp(time_limit=60, one_hot=_one_hot(log))])
     rho = float(monitor.robustness(req, problem.grid.dt, sol.channels, problem.params))
     assert abs(sol.solver["objective"] - 2.25) < 1e-6 and abs(rho - 2.25) < 1e-6
 
@@ -130,8 +134,7 @@ def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f,
     """Both disjunction encodings: one binary per operand, and the logarithmic one."""
     req = nnf.normalize(f)
     problem = replace(base_problem, requirement=req)
-    with _encoding(log):
-        sol, _ = run_chain(problem, [ExactMilp(time_limit=60)])
+    sol, _ = run_chain(problem, [ExactMilp(time_limit=60, one_hot=_one_hot(log))])
     assert sol.solver["return_status"] == "optimal"
     dt = problem.grid.dt
     rho = float(monitor.robustness(req, dt, sol.channels, problem.params))
@@ -146,26 +149,12 @@ def test_milp_optimum_is_the_monitor_value_and_nothing_beats_it(base_problem, f,
         assert other <= rho + 1e-6, (other, rho)
 
 
-@contextlib.contextmanager
-def _encoding(log: bool):
-    old = os.environ.get("STLC_MILP_ONE_HOT")
-    os.environ["STLC_MILP_ONE_HOT"] = "2" if log else "1000000"
-    try:
-        yield
-    finally:
-        if old is None:
-            del os.environ["STLC_MILP_ONE_HOT"]
-        else:
-            os.environ["STLC_MILP_ONE_HOT"] = old
-
-
 @pytest.mark.parametrize("log, binaries", [(True, 3), (False, 7)])
 def test_log_binaries_for_a_wide_disjunction(base_problem, log, binaries):
     """An `eventually` over 7 samples uses ⌈log2 7⌉ = 3 binaries (Gray code) or 7."""
     f = ir.Eventually(0.0, 3.0, _pred("d1.pos.x", True, 1.0))
     problem = replace(base_problem, requirement=f)
-    with _encoding(log):
-        sol, _ = run_chain(problem, [ExactMilp()])
+    sol, _ = run_chain(problem, [ExactMilp(one_hot=_one_hot(log))])
     assert sol.problem_size["binaries"] == binaries
     # by hand: from rest with |v| ≤ 1 m/s, |a| ≤ 2 m/s²: 0.5 s at 2 m/s² (0.25 m, 1 m/s),
     # then 2.5 s at 1 m/s: x(3 s) = 2.75 m, so the margin of x ≥ 1 m is 1.75 m
@@ -313,7 +302,7 @@ def test_a_mission_only_a_moving_end_satisfies_is_planned_not_called_impossible(
     # that may end moving covers 6 m (1 m/s² to 2 m/s by 2 s, then 2 m/s: 2 + 4 m) —
     # ρ = 1.  The holdable end is the planner's preference, not the verdict's: the exact
     # MILP plans without it and the proof does not call the mission impossible
-    from stlc.backends.milp_conflict import prove_infeasible
+    from stlc.backends.milp.conflict import prove_infeasible
 
     p = tmp_path / "dash.stl"
     p.write_text(DASH, encoding="utf-8")

@@ -1,5 +1,5 @@
 """An exact MILP that stops without a satisfying plan (its time limit, no incumbent) hands
-the mission to the general `nlp` chain (``pipeline._fallback``): a point-mass mission too
+the mission to the general `nlp` chain (``strategy._fallback``): a point-mass mission too
 large for the MILP's budget is still planned, the better verified plan is kept, and the
 record says what ran.  A forced `--backend milp` never falls back."""
 
@@ -10,15 +10,17 @@ from pathlib import Path
 import numpy as np
 
 from stlc import pipeline
-from stlc.backends import milp_backend
-from stlc.backends.milp_model import Result
+from stlc.backends.milp import backend as milp_backend
+from stlc.solvers.highs import Result
+from stlc.solvers.status import SolverStatus
 
 MISSION = Path(__file__).parent.parent / "specs" / "benchmarks" / "reach_avoid.stl"
 
 
 def _stopped(self, low, problem):
     """What HiGHS returns when its time limit ends the search before any incumbent."""
-    return Result("Time limit reached", None, float("inf"), -float("inf"), float("inf"), 0, 0.0)
+    return Result(SolverStatus.MAX_TIME, None, float("inf"), -float("inf"), float("inf"), 0, 0.0,
+                  "Time limit reached")
 
 
 def _load():

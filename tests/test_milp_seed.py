@@ -1,4 +1,4 @@
-"""MILP seeds for the `nlp` chain (``stlc.backends.milp_seed``): the seed grid, the exact
+"""MILP seeds for the `nlp` chain (``stlc.backends.milp.seed``): the seed grid, the exact
 sampling of the seed path onto the mission grid, the global choice of a homotopy class the
 local guess does not find, and an impossible mission proved before the NLP runs."""
 
@@ -9,7 +9,9 @@ import pytest
 
 from stlc import pipeline
 from stlc.analysis import monitor
-from stlc.backends import milp_seed, schedule
+from stlc.backends import strategy
+from stlc.backends.milp import seed as milp_seed
+from stlc.backends.nlp import schedule
 from stlc.planning.problem import from_mission
 from stlc.semantics import ir
 from stlc.semantics.timegrid import TimeGrid
@@ -74,8 +76,12 @@ def test_a_long_fine_grid_is_coarsened_past_the_step_cap():
     f = _always(0.0, 60.0)
     assert milp_seed.MAX_SAMPLES == 61
     assert milp_seed.seed_factor(TimeGrid(0.1, 600), f) * 0.1 == pytest.approx(1.0)
+    # 120 s: coarsened up to MAX_COARSE_S only (1 s, 121 samples): the clearance of a
+    # coarser path (v·h/2 + a·h²/8) would close every passage
+    from stlc.planning.coarse_grid import MAX_COARSE_S
+
     m = milp_seed.seed_factor(TimeGrid(0.1, 1200), f)
-    assert 1200 // m + 1 <= milp_seed.MAX_SAMPLES
+    assert m * 0.1 == pytest.approx(MAX_COARSE_S) and 1200 // m + 1 == 121
 
 
 def test_the_seed_path_is_sampled_exactly_onto_the_mission_grid():
@@ -90,7 +96,7 @@ def test_the_seed_path_is_sampled_exactly_onto_the_mission_grid():
     for k in range(2):
         xs[k + 1, :3] = xs[k, :3] + h * xs[k, 3:] + h * h / 2 * uu[k]
         xs[k + 1, 3:] = xs[k, 3:] + h * uu[k]
-    P, V, A = milp_seed._refine(xs, uu, m, dt)
+    P, V, A = milp_seed.refine(xs, uu, m, dt)
     assert P.shape == (3, 7) and A.shape == (3, 6)
     for j in range(6):
         np.testing.assert_allclose(P[:, j + 1], P[:, j] + dt * V[:, j] + dt * dt / 2 * A[:, j],
@@ -149,7 +155,7 @@ def test_a_start_inside_a_no_fly_box_is_proved_impossible_before_the_nlp(tmp_pat
 
 
 def test_the_next_seed_leaves_out_the_choices_of_the_violated_spec(tmp_path):
-    from stlc.backends.milp_seed import MilpPathSeed, conjuncts
+    from stlc.backends.milp.seed import MilpPathSeed, conjuncts
     from stlc.planning.fallback import hover_solution
 
     program, mission = _problem(TRAP, tmp_path, "trap")
@@ -173,7 +179,7 @@ def test_the_next_seed_leaves_out_the_choices_of_the_violated_spec(tmp_path):
 def test_a_plan_that_misses_kappa_is_planned_again_from_other_seeds(tmp_path, monkeypatch):
     # the NLP's plan is replaced by a hover (violated): the pipeline tries the kinematic
     # guess, then the next MILP seed (NEXT_CHOICES in all), and records each try
-    from stlc.backends.casadi_backend import CasadiNlp
+    from stlc.backends.nlp.backend import CasadiNlp
     from stlc.planning.fallback import hover_solution
 
     calls = []
@@ -187,7 +193,7 @@ def test_a_plan_that_misses_kappa_is_planned_again_from_other_seeds(tmp_path, mo
     program, mission = _problem(TRAP, tmp_path, "trap")
     _, sol = pipeline.plan(program, mission, backend="nlp")
     assert calls == [0, "kinematic", 1]  # the MILP seed, the local guess, one cut
-    assert len(sol.solver["chain"]["next_choices"]) == pipeline.NEXT_CHOICES
+    assert len(sol.solver["chain"]["next_choices"]) == strategy.NEXT_CHOICES
     assert sol.status == "violated"
 
 
@@ -214,7 +220,7 @@ def test_the_kinematic_nlp_built_in_a_thread_beside_the_milp_gives_the_same_gues
     """``MilpPathSeed`` builds the seeded kinematic NLP (its choice rows as parameters) in
     a thread while HiGHS looks for the path (``kinematic.build_in_thread``): solved from the
     path, it gives exactly the guess ``kinematic_guess`` builds and solves in line."""
-    from stlc.backends import kinematic
+    from stlc.backends.nlp import kinematic
 
     program, mission = _problem(TRAP, tmp_path, "trap")
     problem = from_mission(program, mission)

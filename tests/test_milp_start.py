@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 from stlc import pipeline, vehicles
 from stlc.analysis import monitor
-from stlc.backends.milp_backend import ExactMilp
-from stlc.backends.milp_start import CoarseStart
+from stlc.backends.milp.backend import ExactMilp
+from stlc.backends.milp.start import CoarseStart
 from stlc.planning.problem import from_mission
 
 BENCH = Path(__file__).parent.parent / "specs" / "benchmarks" / "reach_avoid.stl"
@@ -132,7 +132,7 @@ def test_the_coarse_start_keeps_clear_of_regions_by_the_step_s_clearance(tmp_pat
     distance a path can stray from the nearer sample: v·h/2 + a·h²/8 per axis (by hand:
     ReachAvoid, |v| ≤ 1, |a| ≤ 0.5, h = 0.5 s: 0.25 + 0.015625), so its path, sampled
     finely, clears the obstacle by that much less at worst."""
-    from stlc.backends import milp_seed
+    from stlc.backends.milp import seed as milp_seed
 
     program, mission = _program(tmp_path, "0.1")
     problem = from_mission(program, mission)

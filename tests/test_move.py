@@ -103,7 +103,7 @@ def test_library_warm_start(tmp_path):
     sweep directory written by hand here); the verdict is still the exact monitor's."""
     from stlc.output.solution import trajectory_csv
     from stlc.pipeline import plan
-    from stlc.backends.move_replan import _library_plans, replan_rest
+    from stlc.backends.replan.move import _library_plans, replan_rest
     from stlc.replan.move import Move, simulate_move
 
     f = tmp_path / "m.stl"

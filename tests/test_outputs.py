@@ -24,6 +24,7 @@ from stlc.output import directory
 
 ROOT = Path(__file__).resolve().parent.parent
 OWN = {"report.html", "solution.json", "trajectory.csv", directory.MANIFEST}
+FLIGHT = set(directory.FLIGHT_DIRS)  # the flight-stack folders (stlc.flight.export)
 VEHICLE = """\
 vehicle p : point_mass {
   vel_max = (1, 1, 1) m/s
@@ -69,7 +70,7 @@ def test_unrelated_files_in_the_output_directory_survive(two, tmp_path):
     (out / "sub").mkdir()
     (out / "sub" / "deep.txt").write_text("also mine")
     assert main(["compile", str(two), "--mission", "east", "-o", str(out), "-q"]) == 0
-    assert {p.name for p in out.iterdir()} == OWN | {"notes.txt", "sub"}
+    assert {p.name for p in out.iterdir()} == OWN | FLIGHT | {"notes.txt", "sub"}
     assert (out / "notes.txt").read_text() == "mine"
     assert (out / "sub" / "deep.txt").read_text() == "also mine"
 
@@ -79,7 +80,7 @@ def test_output_to_the_current_directory_keeps_the_mission_file(two, tmp_path):
                         "-o", ".", "-q"], cwd=tmp_path, env=env(), capture_output=True,
                        text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    assert {p.name for p in tmp_path.iterdir()} == OWN | {"two.stl"}
+    assert {p.name for p in tmp_path.iterdir()} == OWN | FLIGHT | {"two.stl"}
     assert two.read_text() == TWO
 
 
@@ -135,7 +136,7 @@ def test_concurrent_compiles_to_one_directory_end_with_one_complete_set(two, tmp
     for p in procs:
         _, err = p.communicate(timeout=300)
         assert p.returncode == 0, err
-    assert {p.name for p in out.iterdir()} == OWN | {"keep.txt"}
+    assert {p.name for p in out.iterdir()} == OWN | FLIGHT | {"keep.txt"}
     sol = json.loads((out / "solution.json").read_text())
     header = (out / "trajectory.csv").read_text().splitlines()[0]
     html = (out / "report.html").read_text()
@@ -162,13 +163,13 @@ def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path)
                     .replace("horizon = 3 s", "horizon = 8 s")
                     .replace("step = 0.1 s", "step = 0.05 s")
                     .replace("always[0, 3]", "always[0, 8]")
-                    .replace("eventually[0, 2] always[0, 1]", "eventually[0, 7] always[0, 1]"))
-    # the robustness stage first (not the energy stage straight from the seed), and a slow
-    # one: limited-memory Hessian, tol 1e-12, no acceptable exit — its 200 iterations last
-    # ~9 s (with the exact Hessian it converged in 18, ~1 s, and a loaded run ended before
-    # the signal came); "energy" below is then the stage that must not run
-    slow = {"STLC_ENERGY_FIRST": "0",
-            "STLC_IPOPT": '{"ipopt.hessian_approximation": "limited-memory", '
+                    .replace("eventually[0, 2] always[0, 1]", "eventually[0, 7] always[0, 1]")
+                    .replace("minimize 0.5 * energy - robustness", "maximize robustness"))
+    # the robustness stage first (no energy objective: not the energy stage straight from
+    # the seed), and a slow one: limited-memory Hessian, tol 1e-12, no acceptable exit —
+    # its 200 iterations last ~9 s (with the exact Hessian it converged in 18, ~1 s, and a
+    # loaded run ended before the signal came); no later stage may run
+    slow = {"STLC_IPOPT": '{"ipopt.hessian_approximation": "limited-memory", '
                           '"ipopt.tol": 1e-12, "ipopt.acceptable_iter": 0}'}
     p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out)],
                          env={**env(), **slow}, stdout=subprocess.PIPE,

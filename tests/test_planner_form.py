@@ -18,8 +18,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from stlc.analysis import monitor
-from stlc.backends import casadi_expr as cx
-from stlc.backends.smooth_casadi import lower_robustness
+from stlc.backends.nlp import expr as cx
+from stlc.backends.nlp.smooth import lower_robustness
 from stlc.semantics import ir, nnf
 from stlc.semantics.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
 from stlc.semantics.timegrid import TimeGrid

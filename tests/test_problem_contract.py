@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from stlc.analysis import monitor
-from stlc.backends import nlp_cache, schedule
+from stlc.backends.nlp import cache as nlp_cache
+from stlc.backends.nlp import schedule
 from stlc.backends.base import run_chain
-from stlc.backends.casadi_backend import CasadiNlp, KinematicGuess
+from stlc.backends.nlp.backend import CasadiNlp, KinematicGuess
 from stlc.pipeline import load
 from stlc.planning.problem import from_mission
 from stlc.semantics import nnf
@@ -113,7 +114,7 @@ def test_nlp_plans_from_the_problems_start_state(loaded):
 def test_a_windowed_problem_is_refused_by_a_whole_horizon_backend(loaded):
     """``window`` is read: the full NLP plans the whole horizon and says so (STL401) before
     any work; the segment backend declares that it plans windows."""
-    from stlc.backends.segment import SegmentBackend
+    from stlc.backends.replan.segment import SegmentBackend
 
     _, problem = loaded
     diags = CasadiNlp().accepts(replace(problem, window=(1.0, 2.0)))

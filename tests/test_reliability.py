@@ -166,10 +166,10 @@ def test_monitor_json_writes_infinities_and_nan_strictly(tmp_path, capsys):
     rc, out, err = run_cli(["monitor", str(stl), "--trace", str(csv), "--json"], capsys)
     assert rc == 0, err
     specs = strict_json(out)["specs"]
-    assert specs["late"] == {"robustness": "inf", "satisfied": True}
-    assert specs["never"] == {"robustness": "-inf", "satisfied": False}
-    assert specs["undef"] == {"robustness": None, "satisfied": None}  # sqrt(-1): undefined
-    assert specs["fine"] == {"robustness": 4.0, "satisfied": True}
+    assert specs["late"] == {"robustness": "inf", "satisfied": True, "kappa": 0.0}
+    assert specs["never"] == {"robustness": "-inf", "satisfied": False, "kappa": 0.0}
+    assert specs["undef"] == {"robustness": None, "satisfied": None, "kappa": 0.0}  # sqrt(-1): undefined
+    assert specs["fine"] == {"robustness": 4.0, "satisfied": True, "kappa": 0.0}
     assert float(specs["late"]["robustness"]) == float("inf")
 
 

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from stlc import pipeline, vehicles
-from stlc.backends.casadi_nlp import substeps
+from stlc.backends.nlp.model import substeps
 from stlc.planning.solution import Solution
 from stlc.vehicles import dynamics
 from stlc.planning.problem import from_mission
-from stlc.backends.segment import SegmentBackend
+from stlc.backends.replan.segment import SegmentBackend
 from stlc.planning.kept import KeptSpecError
 from stlc.replan import disturb
 from stlc.replan.disturb import DisturbanceError

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from stlc import pipeline
-from stlc.backends.backup import TakeoverBackend
+from stlc.backends.replan.takeover import TakeoverBackend
 from stlc.replan import takeover
 from stlc.replan.takeover import TakeoverError, retire
 from stlc.semantics import model

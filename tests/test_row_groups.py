@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stlc.backends import derivatives
+from stlc.backends.nlp import derivatives
 
 
 def _rows():

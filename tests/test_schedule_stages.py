@@ -18,8 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from stlc.backends import casadi_nlp, schedule
-from stlc.backends.casadi_nlp import FEASIBLE_DEFECT, Stage
+from stlc.backends.nlp import model as casadi_nlp
+from stlc.backends.nlp import schedule
+from stlc.backends.nlp.model import FEASIBLE_DEFECT, Stage
 from stlc.pipeline import load
 from stlc.planning.problem import from_mission
 
@@ -90,7 +91,7 @@ def test_a_warm_start_that_misses_kappa_is_planned_from_the_instances_own_seed(m
     # again from its own MILP seed, as its compile would be; the row counts both tries'
     # iterations and says it was replanned
     from stlc import pipeline
-    from stlc.backends.library import LibrarySeed
+    from stlc.backends.nlp.library import LibrarySeed
     from stlc.planning.fallback import hover_solution
     from stlc.sweep import task
 

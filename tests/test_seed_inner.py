@@ -1,4 +1,4 @@
-"""The MILP seed's inner boxes of speed limits (``stlc.backends.seed_inner``): a path that
+"""The MILP seed's inner boxes of speed limits (``stlc.backends.milp.seed_inner``): a path that
 keeps the box keeps the limit (checked by the exact monitor on random traces), the box is
 the largest axis-aligned one (its corner lies on the sphere), predicates that are not an
 upper bound on a norm are left as they are, and the handover's seed path keeps its slow
@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 from stlc import pipeline
 from stlc.analysis import monitor
-from stlc.backends import milp_seed
-from stlc.backends.seed_inner import inner_norms
+from stlc.backends.milp import seed as milp_seed
+from stlc.backends.milp.seed_inner import inner_norms
 from stlc.planning.problem import from_mission
 from stlc.semantics import ir
 

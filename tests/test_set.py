@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from stlc.analysis import monitor
-from stlc.backends import nlp_cache
+from stlc.backends.nlp import cache as nlp_cache
 from stlc.diagnostics import StlcError
 from stlc.pipeline import load, plan
 
@@ -202,7 +202,7 @@ def test_library_warm_start_runs_the_energy_stage_first(tmp_path):
     """A plan-library seed (a neighbouring instance's plan) skips the robustness stages: the
     energy stage starts from it; the verdict is still the exact monitor's at the instance's
     own pose, and the plan starts at the instance's own start."""
-    from stlc.backends.library import LibrarySeed
+    from stlc.backends.nlp.library import LibrarySeed
     from stlc.pipeline import backend_chain
     from stlc.planning.problem import from_mission
 
@@ -228,7 +228,7 @@ def test_library_warm_start_runs_the_energy_stage_first(tmp_path):
 def test_library_picks_the_most_robust_of_the_nearest():
     """``PlanLibrary.nearest`` with a score: the best-scored of the k nearest, ties to the
     nearer; without one, the nearest."""
-    from stlc.backends.library import PlanLibrary
+    from stlc.backends.nlp.library import PlanLibrary
 
     lib = PlanLibrary()
     for y, rho in ((0.0, 0.1), (1.0, 0.5), (2.0, 0.9), (9.0, 5.0), (10.0, 0.0)):

@@ -1,4 +1,4 @@
-"""Tests of the CasADi smooth-robustness lowering (``stlc.backends.smooth_casadi``).
+"""Tests of the CasADi smooth-robustness lowering (``stlc.backends.nlp.smooth``).
 
 The lowering is checked against an independent, deliberately naive numpy implementation
 below (per sample, flat windows, no lifting, no dyadic blocks), against the numpy reference
@@ -18,8 +18,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from strategies import cases
 
-from stlc.backends import casadi_expr as cx
-from stlc.backends.smooth_casadi import LOWER, lower_robustness
+from stlc.backends.nlp import expr as cx
+from stlc.backends.nlp.smooth import LOWER, lower_robustness
 from stlc.semantics import ir, nnf
 from stlc.semantics.ir import Always, And, Bin, Call, Const, Eventually, Or, Pred, Sig
 from stlc.semantics.timegrid import TimeGrid

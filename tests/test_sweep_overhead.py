@@ -114,7 +114,7 @@ def test_first_plan_preempts_a_slow_cold_instance(tmp_path, monkeypatch):
 def test_map_threads_follow_the_environment(monkeypatch):
     import os
 
-    from stlc.backends.derivatives import MAX_THREADS, map_threads
+    from stlc.backends.nlp.derivatives import MAX_THREADS, map_threads
 
     monkeypatch.delenv("STLC_MAP_THREADS", raising=False)
     assert map_threads() == max(1, min(os.cpu_count() or 1, MAX_THREADS))
@@ -128,9 +128,9 @@ def test_local_workers_get_their_share_of_the_cores(tmp_path):
     # K worker processes on the machine's cores: each derivative map gets cores // K threads
     import os
 
-    from stlc.sweep.run import _client
+    from stlc.sweep.run import dask_client
 
-    client, cluster = _client(2, None, str(tmp_path / "x.stl"))
+    client, cluster = dask_client(2, None, str(tmp_path / "x.stl"))
     try:
         got = client.run(lambda: os.environ.get("STLC_MAP_THREADS"))
         assert sorted(got.values()) == [str(max(1, (os.cpu_count() or 1) // 2))] * 2

@@ -117,7 +117,7 @@ def test_forward_speed_from_declared_aerodynamic_data(tmp_path):
        = sqrt(1.5 / (2·1.225·0.05)) · (4·1.15·0.05 / (4·0.01))^(1/4)
        = 3.49927 · 5.75^(1/4) = 3.49927 · 1.54851 = 5.41865 m/s (by hand),
     clamped by the planner to hypot(3.1, 3.1) = 4.38406 m/s."""
-    from stlc.backends.team_backend import forward_speed_target
+    from stlc.backends.team.backend import forward_speed_target
     from stlc.planning.problem import from_mission
 
     text = MISSION.read_text().replace("  forward_speed = 2 m/s\n", "")

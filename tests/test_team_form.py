@@ -16,7 +16,7 @@ import pytest
 
 from stlc import pipeline
 from stlc.analysis import monitor
-from stlc.backends.backup import TakeoverBackend
+from stlc.backends.replan.takeover import TakeoverBackend
 from stlc.frontend.syntax import parse
 from stlc.planning.problem import from_mission
 from stlc.planning.verify import recompute_derived

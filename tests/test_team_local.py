@@ -140,7 +140,7 @@ def test_highs_binary_program_against_brute_force():
     without a feasible warm start: the optimum equals the enumerated one."""
     import scipy.sparse as sp
 
-    from stlc.team.highs import solve_binary
+    from stlc.solvers.highs import solve_binary
 
     rng = np.random.default_rng(3)
     for _ in range(5):

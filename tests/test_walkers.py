@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stlc.backends import choices, smooth_windows
-from stlc.backends.casadi_expr import LoweringError
+from stlc.backends.nlp import choices
+from stlc.backends.nlp import windows as smooth_windows
+from stlc.backends.nlp.expr import LoweringError
 from stlc.semantics import ir
 from stlc.semantics.check.context import misaligned_intervals
 from stlc.semantics.timegrid import TimeGrid
@@ -52,7 +53,7 @@ def test_walkers_raise_on_a_foreign_node():
     with pytest.raises(TypeError):
         list(misaligned_intervals(ir.And((Foreign(),)), 0.5))
     with pytest.raises(LoweringError):
-        smooth_windows._child_needs(Foreign(), np.array([0]), grid)
+        smooth_windows.child_needs(Foreign(), np.array([0]), grid)
 
     class Ev:
         n = 3
@@ -65,7 +66,7 @@ def test_child_needs_knows_every_nnf_node():
     grid = TimeGrid.from_horizon(1.0, 0.5)
     for g in ir.nodes(_sample()):
         if isinstance(g, ir.NNF_NODES):
-            smooth_windows._child_needs(g, np.array([0, 1]), grid)  # no TypeError
+            smooth_windows.child_needs(g, np.array([0, 1]), grid)  # no TypeError
 
 
 def test_windowed_nodes_are_one_list():

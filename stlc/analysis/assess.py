@@ -64,7 +64,13 @@ def run_risk(program: model.Program, mission: model.Mission, sol: Plan, *,
                                 program.params, smoothing.lam,
                                 smoothing.method, base=base, shared=shared,
                                 kappa=float(mission.threshold))
-    return {"mission": mission.name, "cases": [r.to_json() for r in results]}, results
+    out = {"mission": mission.name, "cases": [r.to_json() for r in results]}
+    if cfg.levels:  # the mission's risk levels, judged per case (``risk_levels``)
+        from stlc.analysis.risk_levels import judge_levels
+
+        out["levels"] = {r.name: judge_levels(cfg.levels, r.exact["requirement"], cfg.delta)
+                         for r in results}
+    return out, results
 
 
 def select_mission(path: str, program: model.Program, mission: str | None) -> model.Mission:

@@ -13,6 +13,11 @@ quadratic between the ≤ 6 parameters where the segment crosses a face plane: t
 is at an end, at such a crossing, or at the stationary point of one piece).
 ``segment_clearance`` is its minimum over the obstacles per interval; verification notes
 every vehicle whose segments come closer than its radius (``stlc.planning.verify``).
+
+**Round obstacles** (cylinder, sphere, capsule): the distance of a point is the exact signed
+distance clipped at 0 (``stlc.semantics.shapes``); along a segment it is convex too, so its
+minimum is found by a golden-section search (``GOLDEN_STEPS`` steps: to 1e-12 of the
+segment's length), all segments at once.
 """
 
 from __future__ import annotations
@@ -20,6 +25,35 @@ from __future__ import annotations
 import numpy as np
 
 from stlc.semantics import model
+from stlc.semantics.shapes import signed_distance
+
+GOLDEN_STEPS = 60  #: 0.618^60 ≈ 3e-13
+
+
+def region_distance(P: np.ndarray, box: model.Box) -> np.ndarray:
+    """Euclidean distance from each row of ``P`` to a world-frame obstacle (0 inside)."""
+    if box.shape is None:
+        return box_distance(P, box.lo, box.hi)
+    return np.maximum(signed_distance(P, box.lo, box.hi, box.shape), 0.0)
+
+
+def segment_region_distance(P0: np.ndarray, P1: np.ndarray, box: model.Box) -> np.ndarray:
+    """``segment_box_distance`` for any world-frame obstacle (a round one: golden section
+    on the convex distance along each segment)."""
+    if box.shape is None:
+        return segment_box_distance(P0, P1, box.lo, box.hi)
+    P0, P1 = np.atleast_2d(np.asarray(P0, float)), np.atleast_2d(np.asarray(P1, float))
+    a, b = np.zeros(len(P0)), np.ones(len(P0))
+    g = (np.sqrt(5.0) - 1) / 2
+
+    def f(s):
+        return region_distance(P0 + s[:, None] * (P1 - P0), box)
+
+    for _ in range(GOLDEN_STEPS):
+        c, d = b - g * (b - a), a + g * (b - a)
+        left = f(c) <= f(d)
+        a, b = np.where(left, a, c), np.where(left, d, b)
+    return np.minimum.reduce([f((a + b) / 2), f(np.zeros(len(P0))), f(np.ones(len(P0)))])
 
 
 def box_distance(P: np.ndarray, lo, hi) -> np.ndarray:
@@ -34,7 +68,7 @@ def obstacle_clearance(scenario: model.Scenario, P: np.ndarray) -> np.ndarray | 
     boxes = [r.box for r in scenario.by_kind("obstacle") if r.box.frame is None]
     if not boxes or P.size == 0:
         return None
-    return np.min(np.stack([box_distance(P, b.lo, b.hi) for b in boxes]), axis=0)
+    return np.min(np.stack([region_distance(P, b) for b in boxes]), axis=0)
 
 
 def segment_box_distance(P0: np.ndarray, P1: np.ndarray, lo, hi) -> np.ndarray:
@@ -70,5 +104,4 @@ def segment_clearance(scenario: model.Scenario, P: np.ndarray) -> np.ndarray | N
     boxes = [r.box for r in scenario.by_kind("obstacle") if r.box.frame is None]
     if not boxes or P.shape[0] < 2:
         return None
-    return np.min(np.stack([segment_box_distance(P[:-1], P[1:], b.lo, b.hi) for b in boxes]),
-                  axis=0)
+    return np.min(np.stack([segment_region_distance(P[:-1], P[1:], b) for b in boxes]), axis=0)

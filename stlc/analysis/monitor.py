@@ -15,7 +15,7 @@ of LANGUAGE.md ("Robustness semantics"), vectorised with numpy:
 * ``stlc.analysis.monitor_demand`` evaluates several formulas at their first sample in one go (the
   risk pass's fast path) with these semantics.
 
-Conventions the contract leaves open (worth repeating in the README):
+Conventions the contract leaves open (docs/language.md repeats them):
 
 * The formula is first put in negation normal form (``nnf.normalize``); its semantics is
   that of the NNF, so ``f`` and ``normalize(f)`` always have the same robustness.
@@ -57,6 +57,7 @@ from stlc.semantics.ir import (
     TrueF,
     Until,
 )
+from stlc.semantics.shapes import SD_NUMPY
 from stlc.semantics.timegrid import steps_ceil, steps_floor
 
 INF = np.inf
@@ -87,6 +88,8 @@ def _call(e: Call, args: list) -> np.ndarray:
         return np.minimum.reduce(np.broadcast_arrays(*args)) if len(args) > 1 else args[0]
     if e.fn == "max" and args:
         return np.maximum.reduce(np.broadcast_arrays(*args)) if len(args) > 1 else args[0]
+    if e.fn in SD_NUMPY:  # exact signed distances (``stlc.semantics.shapes``)
+        return SD_NUMPY[e.fn](*args)
     raise ValueError(f"cannot evaluate {e.fn}() with {len(args)} argument(s)")
 
 

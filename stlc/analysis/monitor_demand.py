@@ -296,9 +296,10 @@ class Demand:
                 return _param(name, self.params)
             case Sig(name):
                 c = _channel(name, self.channels)
-                if c.shape != (self.n,):
-                    raise ValueError(f"signal `{name}` has shape {c.shape}, expected ({self.n},)")
-                return c[s:e + 1]
+                if c.ndim not in (1, 2) or c.shape[-1] != self.n:  # (K, n): K traces
+                    raise ValueError(f"signal `{name}` has shape {c.shape}, expected ({self.n},)"
+                                     f" or (K, {self.n})")
+                return c[..., s:e + 1]
         if self.plan.timed[i]:
             v = _separable(x, args, [self.plan.timed[c] for c in kids])
             if v is not None:

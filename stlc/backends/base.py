@@ -16,35 +16,17 @@ solver's own return codes to the shared ``SolverStatus`` through its ``STATUS_MA
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from stlc.diagnostics import Diagnostic, StlcError
 from stlc.semantics import ir
+from stlc.solvers.status import SolverStatus
 
 if TYPE_CHECKING:
     from stlc.planning.solution import Solution
     from stlc.planning.problem import PlanningProblem
-
-
-class SolverStatus(enum.StrEnum):
-    """How a solver run ended (shared by every backend)."""
-
-    OPTIMAL = "optimal"  # the solver's own convergence test
-    ACCEPTABLE = "acceptable"  # the solver's relaxed convergence test
-    STOPPED = "stopped"  # our stagnation rule stopped it (not converged)
-    MAX_ITER = "max_iter"  # iteration limit (not converged)
-    MAX_TIME = "max_time"  # time limit (not converged)
-    INFEASIBLE = "infeasible"
-    FAILED = "failed"
-    INTERRUPTED = "interrupted"
-    NOT_RUN = "not_run"
-
-    @property
-    def converged(self) -> bool:
-        return self in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,7 +62,7 @@ class Capabilities:
 ALL_NODES = frozenset({ir.Pred, ir.TrueF, ir.FalseF, ir.And, ir.Or, ir.Always, ir.Eventually,
                        ir.Until, ir.Release, ir.Next})
 ALL_FUNCTIONS = frozenset({"abs", "sqrt", "norm", "min", "max", "sin", "cos", "exp", "log",
-                           "atan2", "angdiff"})
+                           "atan2", "angdiff", "sd_box", "sd_cylinder", "sd_capsule"})
 
 
 class Backend:
@@ -109,7 +91,7 @@ class Backend:
 
     def start(self, lowered: Any, problem: PlanningProblem) -> Callable[[], Any]:
         """Begin ``solve``; the returned function waits for its result.  By default the solve
-        runs now; a backend that can solve apart (``stlc.backends.apart``) overrides this."""
+        runs now; a backend that can solve apart (``stlc.backends.nlp.apart``) overrides this."""
         raw = self.solve(lowered, problem)
         return lambda: raw
 
@@ -156,7 +138,9 @@ def unsupported(backend: Backend, problem: PlanningProblem) -> list[Diagnostic]:
         for e in ir.expr_nodes(g.expr):
             msg = None
             if isinstance(e, ir.Call) and e.fn not in cap.functions:
-                msg = f"{who} does not support the function `{e.fn}`"
+                msg = f"{who} does not support " + (
+                    "distances to regions (`dist`, a round region)" if e.fn.startswith("sd_")
+                    else f"the function `{e.fn}`")
             elif isinstance(e, ir.Sig) and e.name not in planned \
                     and e.name not in problem.fixed_channels:
                 field = e.name.split(".")[1] if "." in e.name else e.name
@@ -194,7 +178,12 @@ def run_chain(problem: PlanningProblem, chain: Sequence[Backend]) -> tuple[Solut
             except BaseException:  # a lowering error or Ctrl-C: stop the solve apart too
                 getattr(wait, "cancel", lambda: None)()
                 raise
-        raw = wait()
+        from stlc.planning.effort import heartbeat
+
+        with heartbeat(f"{b.name} running (no verified plan yet)" if i == 0 else
+                       f"{b.name} running",  # a backend that runs apart (a seed)
+                       getattr(b, "quiet", True) or not hasattr(wait, "cancel")):
+            raw = wait()
         sol = b.invert(raw, inverse, p)
         sols.append(sol)
         if sol.status == "infeasible":

@@ -1,7 +1,7 @@
-"""``python -m stlc.bench monitor | compile FILE``."""
+"""``python -m stlc.bench monitor | compile FILE | suite``."""
 
 import sys
 
-from stlc.bench.tables import main
+from stlc.bench import main
 
 sys.exit(main())

@@ -30,7 +30,7 @@ import numpy as np
 from stlc.analysis import monitor
 from stlc.planning.solution import Solution
 from stlc.planning.problem import from_mission
-from stlc.backends.segment import SegmentBackend
+from stlc.backends.replan.segment import SegmentBackend
 from stlc.replan.disturb import simulate_disturbances
 from stlc.planning.kept import kept_clauses
 from stlc.semantics import model

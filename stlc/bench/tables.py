@@ -133,7 +133,7 @@ def _solver_stats() -> Iterator[list[dict]]:
     ``schedule._solve`` returns ``prob.solver.stats()`` of the solve it ran; it is wrapped
     for the duration of the block (the kinematic guess has its own solver and is timed as
     ``guess_s``)."""
-    from stlc.backends import schedule
+    from stlc.backends.nlp import schedule
 
     collected: list[dict] = []
     orig = getattr(schedule, "_solve", None)
@@ -322,19 +322,19 @@ COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: dict | None = None) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m stlc.bench", description=__doc__.split(
         "\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name, (help_text, add_arguments, run) in COMMANDS.items():
+    for name, (help_text, add_arguments, run) in (commands or COMMANDS).items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         add_arguments(p)
         p.set_defaults(run=run)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv: list[str] | None = None, commands: dict | None = None) -> int:
+    args = build_parser(commands).parse_args(argv)
     return args.run(args)
 
 

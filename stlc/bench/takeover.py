@@ -26,7 +26,7 @@ SPEC = "specs/bird_diverter_2x7.stl"
 
 def main(argv: list[str] | None = None) -> int:
     from stlc import pipeline
-    from stlc.backends.backup import TakeoverBackend
+    from stlc.backends.replan.takeover import TakeoverBackend
     from stlc.replan.takeover import GOAL_S, TARGET_S, simulate_failure
     from stlc.semantics import model
 

@@ -38,6 +38,7 @@ import time
 
 import numpy as np
 
+from stlc import settings
 from stlc.pipeline import load
 from stlc.team.milp import assign
 from stlc.team.payload import payload_team, uninstalled
@@ -88,7 +89,7 @@ def compile_once(path: str) -> dict:
         w0 = time.perf_counter()
         proc = subprocess.run([sys.executable, "-m", "stlc", "compile", "-q", "--no-risk",
                                "-o", out, path], capture_output=True, text=True,
-                              env={**os.environ, "OMP_NUM_THREADS": "1"})
+                              env={**settings.environment(), "OMP_NUM_THREADS": "1"})
         wall = time.perf_counter() - w0
         r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)

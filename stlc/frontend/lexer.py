@@ -23,7 +23,8 @@ DECLARATIONS = ("vehicle", "scenario", "mission", "human", "region", "obstacle",
                 "station", "home", "const", "spec", "risk", "case", "replan", "simulate",
                 "compare", "disturb", "fail", "move", "start", "rotor")
 FUNCTIONS = ("abs", "sqrt", "norm", "dist", "dot", "min", "max", "sin", "cos", "exp", "log",
-             "atan2", "angdiff", "box", "diag", "normal", "hexarotor", "quadrotor")
+             "atan2", "angdiff", "box", "cylinder", "sphere", "capsule", "diag", "normal",
+             "hexarotor", "quadrotor")
 _UNIT = r"[A-Za-z\u00b0\u00b5][A-Za-z\u00b0\u00b5]*(?:\^-?[0-9]+)?" \
         r"(?:[*/][A-Za-z\u00b0\u00b5]+(?:\^-?[0-9]+)?)*"
 _NUM = r"(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"

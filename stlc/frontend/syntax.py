@@ -18,6 +18,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from stlc.diagnostics import Diagnostic, Span, StlcError, normalize_newlines, source_lines
 from stlc.frontend import ast
 from stlc.frontend.postlex import MAX_DEPTH, DepthError, PostLex
+from stlc.frontend.typos import keyword_typo
 
 MAX_TREE_DEPTH = 200  # parse-tree nesting (`not not …`, `a ^ b ^ …`, long `+` chains)
 MAX_LINE = 10_000  # characters per line
@@ -293,6 +294,10 @@ def _syntax_diag(e: UnexpectedInput, file: str, text: str) -> Diagnostic:
             "in parentheses or end the line with an operator"
     else:
         msg = f"unexpected {what}"
+    typo = keyword_typo(text, line, col,
+                        str(tok) if tok is not None and tok.type == "NAME" else None)
+    if typo:
+        help_ = typo
     return Diagnostic("STL002", msg, span, help_)
 
 

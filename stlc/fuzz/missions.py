@@ -1,4 +1,4 @@
-"""Fuzz inputs that run whole commands (issue 23, item 5): ``stlc simulate`` with events
+"""Fuzz inputs that run whole commands: ``stlc simulate`` with events
 from the file and the command line and ``replan`` blocks, team missions (capacities,
 stations, horizons, target counts) and resource limits (tiny steps, nested quantifiers,
 huge periods and counts).  Each case is a file, the command's arguments and, for the

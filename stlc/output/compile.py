@@ -4,7 +4,8 @@
 The pipeline (``stlc.pipeline.compile_file``) orders the passes and calls this last, once
 everything the outputs contain exists.  ``stlc.output.directory`` writes them: only stlc's own
 files, each replaced atomically, as one set under a lock on the directory (checked before any
-solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker.
+solve).  A team plan also gets one ``trajectory.<drone>.csv`` per drone for a tracker;
+every plan its flight-stack outputs (``flight/``, ``rosbag2/``: ``stlc.flight.export``).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import os
 import sys
 
 from stlc.output.solution import solution_json, trajectory_csv
+from stlc.planning import words
 from stlc.planning.solution import Solution
 from stlc.semantics import model
 
@@ -29,9 +31,10 @@ def write_outputs(outdir: str, program: model.Program, mission: model.Mission, s
 
 
 def write_files(outdir: str, program: model.Program, mission: model.Mission, sol: Solution,
-                extra=None, simulation=None) -> None:
+                extra=None, simulation=None, flight=None) -> None:
     """The compile outputs of ``sol``, plus what ``extra(stage_dir)`` writes, as one set;
-    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section."""
+    ``simulation`` (a ``stlc.replan.result.SimulationResult``) adds the report's section,
+    and so does ``flight`` (``stlc fly``'s record and flown channels)."""
     from stlc.output.directory import staged
     from stlc.output.report import write_report
 
@@ -42,11 +45,15 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
             fh.write(solution_json(sol))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
+        if sol.times.size:  # PX4 / MRS setpoints and a ROS 2 bag (``stlc.flight.export``)
+            from stlc.flight.export import write_flight_outputs
+
+            write_flight_outputs(tmp, program, mission, sol.times, sol.channels)
         if sol.routes:
-            from stlc.backends.team_backend import solution_plan
+            from stlc.backends.strategy import team_plan
             from stlc.team.refine import per_drone_csv
 
-            for drone, text in per_drone_csv(solution_plan(sol)).items():
+            for drone, text in per_drone_csv(team_plan(sol)).items():
                 with open(os.path.join(tmp, f"trajectory.{drone}.csv"), "w") as fh:
                     fh.write(text)
         if sol.risk is not None:
@@ -59,21 +66,24 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
 
                 save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
         write_report(os.path.join(tmp, "report.html"), program, mission, sol,
-                     simulation=simulation)
+                     simulation=simulation, flight=flight)
 
 
 def summary(sol: Solution, outdir: str) -> None:
+    """The verdict line (exact ρ against κ), then, without a satisfying plan, what fails and
+    whether impossibility was proved — each said once."""
     energy = f"{sol.energy:.1f} J" if sol.energy == sol.energy else "not computed"
     if len(sol.energy_by_vehicle) > 1:
         energy += " (" + ", ".join(f"{k} {e:.1f} J" for k, e in sol.energy_by_vehicle.items()) + ")"
-    print(f"{sol.mission}: {sol.status}  exact robustness {sol.robustness_exact:+.4f}  "
-          f"smooth {sol.robustness_smooth:+.4f}  energy {energy}  "
-          f"→ {outdir}/report.html")
-    if sol.status == "infeasible":
-        for d in sol.diagnostics:
-            if d.code == "STL504":
-                print(f"  error[STL504]: {d.message}", file=sys.stderr)
-    elif sol.status != "satisfied":
+    kappa = float(sol.smoothing.get("threshold", 0.0) or 0.0)
+    print(f"{sol.mission}: {words.verdict_line(sol.status, sol.robustness_exact, kappa)}  "
+          f"energy {energy}  → {outdir}/report.html")
+    # the plan's own errors, once: STL504 (no plan exists), STL503 (no plan found)
+    for d in sol.diagnostics if sol.status != "satisfied" else ():
+        if d.severity == "error":
+            print(f"  error[{d.code}]: {d.message}"
+                  + (f"\n  = help: {d.help}" if d.help else ""), file=sys.stderr)
+    if sol.status not in ("satisfied", "infeasible"):
         worst = min(sol.specs.items(), key=lambda kv: kv[1].robustness, default=None)
         if worst is not None:
             name, s = worst
@@ -82,14 +92,27 @@ def summary(sol: Solution, outdir: str) -> None:
                 by = (f" by {-s.robustness:.4f}" if math.isfinite(s.robustness) else
                       " whatever the plan (no predicate can make it hold)")
                 pred = f": {s.binding_predicate}" if s.binding_predicate else ""
-                print(f"  error[STL501]: spec `{name}` (line {s.line}) is violated{at}{by}"
-                      f"{pred}", file=sys.stderr)
+                print(f"  error[STL501]: {sol.mission}: spec `{name}` (line {s.line}) is "
+                      f"violated{at}{by}{pred}", file=sys.stderr)
             else:
-                kappa = sol.smoothing.get("threshold", 0.0)
-                print(f"  error[STL501]: spec `{name}` (line {s.line}) holds with margin "
-                      f"{s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
+                print(f"  error[STL501]: {sol.mission}: spec `{name}` (line {s.line}) holds "
+                      f"with margin {s.robustness:.4f}{at}, short of the threshold κ = {kappa:g}"
                       + (f": {s.binding_predicate}" if s.binding_predicate else ""),
                       file=sys.stderr)
+        note = words.impossibility_note(sol.solver.infeasibility)
+        if note:
+            print(f"  note: {sol.mission}: {note}", file=sys.stderr)
+
+
+def risk_levels_failed(sol: Solution) -> bool:
+    """Print each risk level of the mission that a risk case does not meet (``risk.json``'s
+    ``levels``); True if there is one (``stlc compile`` then exits 3)."""
+    failed = [(case, lv) for case, lvs in ((sol.risk or {}).get("levels") or {}).items()
+              for lv in lvs if not lv["holds"]]
+    for case, lv in failed:
+        print(f"  risk level `{lv['level']}` (line {lv['line']}) does not hold in case "
+              f"`{case}`: {lv['measure']} = {lv['value']:.4g}", file=sys.stderr)
+    return bool(failed)
 
 
 def overrun_writer(program: model.Program, m: model.Mission, outdir: str, code: int,

@@ -1,7 +1,7 @@
 """The output directory of ``stlc compile`` / ``simulate`` / ``risk`` / ``sweep``: what stlc
 may write there, and how.
 
-Contract (README, "Output directory"):
+Contract (docs/outputs.md, "The output directory"):
 
 * stlc writes only the files of its output set into DIR (``OWNED``: solution.json,
   trajectory.csv, report.html, risk.json, risk_samples.npz, ``stlc simulate``'s replan.json
@@ -46,9 +46,15 @@ from stlc.diagnostics import Diagnostic, Span, StlcError
 #: per-drone trajectories of a team plan, ``trajectory.<drone>.csv`` (only those of the
 #: drones being written); removal is by record (``MANIFEST``), never by name
 OWNED = ("solution.json", "trajectory.csv", "report.html", "risk.json", "risk_samples.npz",
-         "replan.json", "executed.csv")
+         "replan.json", "executed.csv", "flight.json", "flown.csv")
 MANIFEST = ".stlc-outputs.json"
 _PER_DRONE = re.compile(r"trajectory\.[A-Za-z_][A-Za-z0-9_]*\.csv")
+#: the flight-stack outputs (``stlc.flight.export``): one folder of per-drone setpoint
+#: files and one ROS 2 bag folder; a file there that no manifest lists is not stlc's
+#: (``preflight`` refuses to write over it)
+FLIGHT_DIRS = ("flight", "rosbag2")
+_FLIGHT = re.compile(r"flight/[A-Za-z_][A-Za-z0-9_]*\.(px4|mrs)\.csv"
+                     r"|rosbag2/(metadata\.yaml|rosbag2\.mcap)")
 STAGE_PREFIX = ".stlc-stage-"
 
 
@@ -60,7 +66,8 @@ _SWEEP_PLAN = re.compile(r"plans/[0-9]+\.csv")
 def owned(name: str) -> bool:
     """Could ``name`` be one of stlc's outputs?  (A necessary condition for writing or
     removing it, not a sufficient one: see ``recorded``.)"""
-    return name in OWNED or _PER_DRONE.fullmatch(name) is not None
+    return (name in OWNED or _PER_DRONE.fullmatch(name) is not None
+            or _FLIGHT.fullmatch(name) is not None)
 
 
 def sweep_owned(name: str) -> bool:
@@ -127,7 +134,7 @@ def _probe(directory: str) -> str | None:
 
 
 def preflight(outdir: str, span: Span, names: tuple[str, ...] = (*OWNED, MANIFEST),
-              dirs: tuple[str, ...] = ()) -> None:
+              dirs: tuple[str, ...] = FLIGHT_DIRS) -> None:
     """Raise ``StlcError`` (STL605) unless ``outdir`` exists as a writable directory or can
     be created, where each of ``names`` that exists is a regular file and each of ``dirs``
     a directory; has no side effect on the file system (it creates nothing that stays)."""
@@ -162,6 +169,23 @@ def preflight(outdir: str, span: Span, names: tuple[str, ...] = (*OWNED, MANIFES
             if os.path.lexists(p) and not os.path.isdir(p):
                 raise _fail(f"cannot write into `{p}`: it is not a directory", span,
                             "move it away, or choose another `-o DIR`")
+        if set(dirs) & set(FLIGHT_DIRS):
+            _foreign_flight_files(path, span)
+
+
+def _foreign_flight_files(path: str, span: Span) -> None:
+    """A flight-stack output name that exists in ``path`` but no manifest lists was not
+    written by stlc (a user's own bag in ``rosbag2/``): refuse rather than replace it."""
+    mine = recorded(path)
+    for d in FLIGHT_DIRS:
+        folder = os.path.join(path, d)
+        if not os.path.isdir(folder):
+            continue
+        for name in sorted(os.listdir(folder)):
+            rel = f"{d}/{name}"
+            if _FLIGHT.fullmatch(rel) and rel not in mine:
+                raise _fail(f"cannot replace `{os.path.join(folder, name)}`: stlc did not "
+                            "write it", span, "move it away, or choose another `-o DIR`")
 
 
 def _umask() -> int:

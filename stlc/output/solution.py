@@ -45,7 +45,7 @@ def solution_json_dict(sol: Solution) -> dict:
         "energy": num(sol.energy),
         "energy_by_vehicle": {k: num(v) for k, v in sol.energy_by_vehicle.items()},
         "timing": {k: round(float(v), 4) for k, v in sol.timing.items()},
-        "solver": sol.solver,
+        "solver": sol.solver.to_json(),
         "smoothing": sol.smoothing,
         "problem_size": sol.problem_size,
         "notes": sol.notes,

@@ -26,6 +26,8 @@ def bound_kind(b: ir.Bound) -> str | None:
     calls = b.calls | {x.fn for x in ir.expr_nodes(b.expr) if isinstance(x, ir.Call)}
     if "angdiff" in calls and b.side == "upper":
         return "heading_margin"
+    if any(fn.startswith("sd_") for fn in calls):  # a distance to a region, not between drones
+        return None
     if calls & {"dist", "norm"} and b.side == "lower":
         return "distance_min"
     return None

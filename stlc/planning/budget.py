@@ -15,8 +15,8 @@ The per-sample costs were measured on this machine with ``ru_maxrss`` after
 the build grows linearly in n (a point mass: 2 predicates, 9 states+inputs, ≈ 100 kB per
 sample; the hexarotor climb: 12 predicates, 24, ≈ 0.65 MB; the handover: 69 predicates,
 ≈ 1.3 MB), fitted by ≈ 0.9 kB·(nx + nu)² + 11.4 kB·P.  ``SOLVE_FACTOR`` covers IPOPT's
-own memory during the solve (1.1× measured at 1,500 samples of a point mass; issue 23
-reports 8.3 GB at 20,000 samples of one, ≈ 4× the build), so the estimate errs on the
+own memory during the solve (1.1× measured at 1,500 samples of a point mass; 8.3 GB was
+measured at 20,000 samples of one, ≈ 4× the build), so the estimate errs on the
 large side.  A team mission is planned on waypoints (``stlc.team``) with its own budgets
 and is not estimated here.
 """

@@ -181,7 +181,7 @@ def to_local(problem) -> tuple[object, Frame]:
     fr = frame_of(problem)
     if fr.identity:
         return problem, fr
-    from stlc.planning.problem import _frozen
+    from stlc.planning.problem import frozen
     from stlc.semantics.specs import NamedSpec
 
     memo: dict = {}
@@ -193,8 +193,8 @@ def to_local(problem) -> tuple[object, Frame]:
         seed = _solution(seed, fr, -1.0)
     local = replace(problem, program=_program(problem.program, fr),
                     requirement=shift_formula(problem.requirement, fr, memo),
-                    specs=_frozen(specs), start_states=_frozen(_states(problem, fr)),
-                    fixed_channels=_frozen(_channels(problem.fixed_channels, fr, -1.0)),
+                    specs=frozen(specs), start_states=frozen(_states(problem, fr)),
+                    fixed_channels=frozen(_channels(problem.fixed_channels, fr, -1.0)),
                     seed=seed)
     return local, fr
 

@@ -3,7 +3,7 @@
 A final state is *holdable* when it is an equilibrium of the vehicle's own ODE with zero
 input: every component of ``f(x_N, 0)`` within ``HOLD_TOL`` (+ a rounding allowance) — for a
 multirotor, speed and attitude rates ≈ 0 and rotor forces at hover (v̇ ≈ 0, ω̇ ≈ 0); for a
-point mass, speed ≈ 0.  The planner asks for it by default (``stlc.backends.flyable``);
+point mass, speed ≈ 0.  The planner asks for it by default (``stlc.backends.nlp.flyable``);
 the report and ``solution.json`` (``end_state``) say, per vehicle, whether the plan ends
 holdable, with the final speed, body rate and acceleration.  A mission with ``end = free``
 is not flagged.
@@ -15,7 +15,7 @@ import numpy as np
 
 from stlc import vehicles
 
-HOLD_TOL = 0.05  # as stlc.backends.flyable.HOLD_TOL
+HOLD_TOL = 0.05  # as stlc.backends.nlp.flyable.HOLD_TOL
 SLACK = 1e-3  # the planner meets its rows to IPOPT's tolerance, the check allows rounding
 
 

@@ -1,7 +1,7 @@
 """The invariants a replanning segment keeps (paper A §4.4): ``kept_clauses`` splits the
 kept specs of a problem into one ``Clause`` per ``always[a, b]`` over state predicates of
 one vehicle, with its window in mission samples; ``KeptSpecError`` says why a spec cannot
-be kept.  Used by the segment backend (``stlc.backends.segment``), which lowers the
+be kept.  Used by the segment backend (``stlc.backends.replan.segment``), which lowers the
 clauses, and by the replanning loop (``stlc.replan.disturb``), which judges them."""
 
 from __future__ import annotations

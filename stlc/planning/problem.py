@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 __all__ = ["NamedSpec", "PlanningProblem", "from_mission", "mission_specs"]
 
 
-def _frozen(d: Mapping | None = None) -> Mapping:
+def frozen(d: Mapping | None = None) -> Mapping:
     return MappingProxyType(dict(d or {}))
 
 
@@ -55,8 +55,8 @@ class PlanningProblem:
     comparisons: tuple[tuple[str, model.Objective | None], ...] = ()
     time_limit: float | None = None  # s of wall time for a solve (`--time-limit` wins)
     #: a vehicle's start state (its model's state vector) other than the declared one
-    start_states: Mapping[str, np.ndarray] = field(default_factory=_frozen)
-    fixed_channels: Mapping[str, np.ndarray] = field(default_factory=_frozen)
+    start_states: Mapping[str, np.ndarray] = field(default_factory=frozen)
+    fixed_channels: Mapping[str, np.ndarray] = field(default_factory=frozen)
     window: tuple[float, float] | None = None  # (start, end) s of the part being planned
     #: a team problem's targets to install and refilling stations to use (names; None: all
     #: the scenario's) — a takeover's pending targets and free stations
@@ -64,7 +64,7 @@ class PlanningProblem:
     stations: tuple[str, ...] | None = None
     #: the ``--set`` values of this instance (SI, by name as written), already applied to
     #: ``program`` (its params and vehicle starts are the NLP's parameters: nlp_cache.bind)
-    values: Mapping[str, float] = field(default_factory=_frozen)
+    values: Mapping[str, float] = field(default_factory=frozen)
     seed: Solution | None = None
 
     @property
@@ -104,11 +104,11 @@ def from_mission(program: model.Program, mission: model.Mission, *,
     return PlanningProblem(
         program=program, mission=mission, team=tuple(mission.vehicles), grid=grid,
         requirement=nnf.normalize(mission.requirement),
-        specs=_frozen(mission_specs(program, mission)), objective=mission.objective,
+        specs=frozen(mission_specs(program, mission)), objective=mission.objective,
         threshold=mission.threshold, smoothing=mission.smoothing,
         integrator=str(mission.options.get("integrator", "rk4")),
         hold_end=str(mission.options.get("end", "hover")) != "free",
         max_iter=int(mission.options.get("max_iter", 1000)),  # type: ignore[call-overload]
         comparisons=tuple(mission.options.get("compare") or ()),  # type: ignore[arg-type]
         time_limit=mission.options.get("time_limit"),  # type: ignore[arg-type]
-        values=_frozen(values))
+        values=frozen(values))

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stlc.planning.record import SolveRecord
 from stlc.semantics.origin import Origin
 
 
@@ -77,7 +78,8 @@ class Solution:
     channels: dict[str, np.ndarray]  # every state/input/derived channel, each (n,)
     #: parse_s check_s build_s solve_s total_s
     timing: dict[str, float] = field(default_factory=dict)
-    solver: dict[str, object] = field(default_factory=dict)  # name iterations return_status ...
+    #: what the planners did (``stlc.planning.record``); a dict given is read into one
+    solver: SolveRecord = field(default_factory=SolveRecord)
     smoothing: dict[str, object] = field(default_factory=dict)  # method, lam, schedule
     problem_size: dict[str, int] = field(default_factory=dict)  # variables, constraints, samples
     notes: list[str] = field(default_factory=list)
@@ -107,3 +109,8 @@ class Solution:
     #: the solver's own state samples, before ``channels`` re-simulated them from the
     #: inputs (``stlc.planning.boundary``: a plan on the boundary judged on its own numbers)
     solver_states: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __setattr__(self, key: str, value) -> None:
+        if key == "solver":
+            value = SolveRecord.of(value)
+        object.__setattr__(self, key, value)

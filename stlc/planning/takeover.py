@@ -1,4 +1,4 @@
-"""What a backup drone's planner (``stlc.backends.backup``) and the takeover simulation
+"""What a backup drone's planner (``stlc.backends.replan.takeover``) and the takeover simulation
 (``stlc.replan.takeover``) exchange: the other drones' trajectories held ``Fixed`` on the
 segment, and the ``BackupPlan`` that comes back."""
 

@@ -118,7 +118,7 @@ def judge(problem: PlanningProblem, sol: Solution) -> Verification:
     status = sol.status
     satisfied = verdict.satisfied(exact, kappa) and sol.feasible
     if status == Verdict.INFEASIBLE and not satisfied:
-        pass  # proved before any plan (``milp_conflict``): the plan shown cannot change that
+        pass  # proved before any plan (``milp.conflict``): the plan shown cannot change that
     elif status != Verdict.SOLVER_FAILED:
         status = Verdict.SATISFIED if satisfied else Verdict.VIOLATED
     if 0 <= exact < kappa:
@@ -142,6 +142,7 @@ def verify(problem: PlanningProblem, sol: Solution) -> Solution:
     from stlc.planning.holdable import end_state, flag
 
     sol = judge(problem, sol).apply(sol)
+    sol.smoothing.setdefault("threshold", problem.threshold)  # κ, named beside every verdict
     sol.end_state = end_state(problem.vehicles(), sol.channels)
     plan_energy(problem, sol)
     sol.notes.extend(flag(problem.hold_end, sol.end_state))
@@ -154,7 +155,7 @@ def corner_cuts(problem: PlanningProblem, channels: dict, times) -> list[str]:
     world-frame obstacle than the vehicle's radius (or touches it), although the samples
     themselves are what the monitor judges (``stlc.analysis.clearance``: exact segment-box
     distance)."""
-    from stlc.analysis.clearance import segment_box_distance
+    from stlc.analysis.clearance import segment_region_distance
 
     obstacles = [r for r in problem.program.scenario.by_kind("obstacle") if r.box.frame is None]
     notes = []
@@ -166,7 +167,7 @@ def corner_cuts(problem: PlanningProblem, channels: dict, times) -> list[str]:
         r = float(getattr(v, "radius", 0.0))
         worst = None
         for ob in obstacles:
-            d = segment_box_distance(P[:-1], P[1:], ob.box.lo, ob.box.hi)
+            d = segment_region_distance(P[:-1], P[1:], ob.box)
             k = int(np.argmin(d))
             if (d[k] < r - 1e-9 or d[k] <= 1e-12) and (worst is None or d[k] < worst[0]):
                 worst = (float(d[k]), k, ob.name)

@@ -28,7 +28,7 @@ open is decided here):
   **full state** at the first waypoint of the T_g grid (samples at or after j·T_g) that lies
   at least T_g after s, so the segment lasts between T_g and 2T_g (less only at the end of
   the horizon, where the goal is the last sample; an event with no sample left after s is
-  reported as not run).  The segment backend (``stlc.backends.segment``, passed in as ``segment``) keeps the specs of
+  reported as not run).  The segment backend (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
   ``cfg.specs`` on the segment's samples after s with margin κ, obeys the dynamics and
   bounds and minimises input effort and distance from the reference.
 * **Acceptance.**  A replan is flown iff IPOPT converged (optimal or acceptable), its wall
@@ -184,7 +184,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
                           ) -> SimulationResult:
     """Fly ``plan`` under ``disturbances`` with event-triggered replanning (module doc).
     ``segment`` is the replanning backend, built as ``segment(steps=M, budget=t_c,
-    integrator=...)`` once per vehicle (``stlc.backends.segment.SegmentBackend``)."""
+    integrator=...)`` once per vehicle (``stlc.backends.replan.segment.SegmentBackend``)."""
     grid = problem.grid
     dt, n = grid.dt, grid.n
     disturbances = sorted(disturbances, key=lambda d: d.time)
@@ -207,7 +207,7 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
                                                   ("budget", cfg.compute_budget))
              if not is_aligned(x, dt)]
     # bounded by the mission's samples: a waypoint period longer than the horizon gives
-    # one segment to the end, never an NLP sized by the period (issue 23)
+    # one segment to the end, never an NLP sized by the period
     G = min(max(1, steps_ceil(cfg.waypoint_period, dt)), max(1, n - 1))
     M = min(2 * G - 1, max(1, n - 1))
     for tr in tracks.values():

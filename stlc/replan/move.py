@@ -5,12 +5,14 @@
 robustness (the mission's requirement, all of it, with the new pose for the whole
 trajectory: the pose is a constant of the formula) and, when the mission declares risk
 cases, VaR/CVaR of that robustness under each case's distribution moved to the new pose.
-They are recorded (``risk_ok``: VaR_β ≥ 0 at the largest β); the language declares no risk
-level, so κ decides: if the plan still meets κ it is kept and flown.  Otherwise the rest of the mission is replanned from the current state:
+They are recorded (``risk_ok``: VaR_β ≥ 0 at the largest β).  The plan is kept and flown
+when it still meets κ and every risk level of the mission's ``risk`` block (``require
+cvar(0.9) >= 0 m``, …; ``stlc.analysis.risk_levels``) holds in every case at the new pose.
+Otherwise the rest of the mission is replanned from the current state:
 the same parametric NLP (``nlp_cache``: the new pose is a parameter value, nothing is
 rebuilt) with every sample up to the event fixed to what was flown, warm-started from the
 current plan — or from the nearest plan of ``library`` (a sweep's ``plans/`` directory:
-``--library DIR``) — and the whole λ/energy schedule (``backends.move_replan``, handed in
+``--library DIR``) — and the whole λ/energy schedule (``backends.replan.move``, handed in
 by the pipeline).  The new plan is flown when its
 exact robustness at the new pose is ≥ κ; the record says what the decision was made on.
 """
@@ -72,7 +74,7 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
                   replanner) -> SimulationResult:
     """``replanner(problem, flown, k_e, library, pose) -> (channels, info)`` plans the rest
     of the mission (the problem at the new pose; the pipeline passes
-    ``backends.move_replan.replan_rest``)."""
+    ``backends.replan.move.replan_rest``)."""
     from stlc.analysis import monitor
 
     m, grid = problem.mission, problem.grid
@@ -83,14 +85,18 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
     before = float(monitor.robustness(problem.requirement, dt, sol.channels, program.params))
     risk = _risk(program, m, sol.channels, times, problem)
     risk_ok = _risk_ok(risk)
-    replan = before < kappa  # the risk figures are recorded (no risk level is declared)
+    failed = [f"{case}: {lv['level']}" for case, lvs in ((risk or {}).get("levels") or {}).items()
+              for lv in lvs if not lv["holds"]]
+    replan = before < kappa or bool(failed)  # κ, then the mission's risk levels
     vehicle = problem.team[0]
     detail: dict = {"human": move.human, "pos": list(move.pos),
                     "att_deg": None if move.att is None else list(np.rad2deg(move.att)),
                     "robustness_nominal_pose": float(sol.robustness_exact),
                     "robustness_new_pose": before, "threshold": kappa,
-                    "risk": risk, "risk_ok": risk_ok,
-                    "decision": "replan" if replan else "keep"}
+                    "risk": risk, "risk_ok": risk_ok, "risk_levels_failed": failed,
+                    "decision": "replan" if replan else "keep",
+                    "decided_by": "threshold" if before < kappa else
+                    "risk level" if failed else "threshold and risk levels"}
     ev = ReplanEvent(move.time, vehicle, 0.0, replan, kind="move", detail=detail)
     executed = dict(sol.channels)
     if replan:
@@ -118,7 +124,8 @@ def simulate_move(problem, sol, move: Move, library: str | None = None, *,
                            float((m.replan.compute_budget if m.replan else 0.4)), rob, kappa)
     res.notes.append(f"{move.human} moves at t = {move.time:g} s; the plan "
                      f"{'is replanned' if replan else 'is kept'} (exact robustness at the new "
-                     f"pose {before:+.4f}, κ = {kappa:g})")
+                     f"pose {before:+.4f}, κ = {kappa:g}"
+                     + (f"; risk levels not met: {', '.join(failed)}" if failed else "") + ")")
     return res
 
 

@@ -25,7 +25,7 @@ Semantics (the decisions the paper leaves open):
   at t_fail, when the drone leaves the target); one in progress (shorter) does not, and its
   target is pending.
 * **The backup** waits at its start, at rest, until t0, carrying its full capacity; on
-  [t0, T_N] it flies the plan of the takeover backend (``stlc.backends.backup``: the team
+  [t0, T_N] it flies the plan of the takeover backend (``stlc.backends.replan.takeover``: the team
   MILP, seed and refinement), run through ``run_chain`` on the takeover's
   ``PlanningProblem``: the backup alone, the window [t0, T_N], the other drones' plans and
   the parked failed drone as fixed channels (in the separation rows), the pending targets
@@ -211,7 +211,7 @@ def simulate_failure(problem, plan, failure: model.Failure,
     ``energy`` adds the mission's forward-speed term (eq. 9) to the backup's refinement; off
     by default: that second IPOPT solve roughly doubles the replan time for a cost term,
     not a spec.  ``planner`` is the backend that plans the backup
-    (``stlc.backends.backup.TakeoverBackend``, given by the pipeline)."""
+    (``stlc.backends.replan.takeover.TakeoverBackend``, given by the pipeline)."""
     cfg = cfg if cfg is not None else model.ReplanConfig()
     backup = validate(problem, plan, failure, cfg)
     f, b = failure.vehicle, backup.name

@@ -48,7 +48,8 @@ def apply_values(program: model.Program, settings: list[Setting]) -> model.Progr
             d = [params[f"{r.name}.center.{a}"] - (r.box.lo[k] + r.box.hi[k]) / 2
                  for k, a in enumerate("xyz")]
             r = replace(r, box=replace(r.box, lo=tuple(x + e for x, e in zip(r.box.lo, d)),
-                                       hi=tuple(x + e for x, e in zip(r.box.hi, d))))
+                                       hi=tuple(x + e for x, e in zip(r.box.hi, d)),
+                                       shape=r.box.shape and r.box.shape.moved(d)))
         regions.append(r)
     humans = []
     for h in program.scenario.humans:

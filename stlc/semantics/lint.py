@@ -14,15 +14,21 @@ and check but rarely mean what they say.  ``stlc check``/``compile`` print them 
   (also a human's region) that no formula mentions (by name or through a quantifier over
   its kind) — an obstacle no formula mentions is not avoided.
 
+* ``STLW05`` — one unitless ``threshold`` κ > 0 over predicates measured in different
+  units (m, m/s, rad, Hz): κ = 0.05 asks 5 cm of a position, 0.05 m/s of a speed and 2.9°
+  of an angle at once.  Give a margin per unit instead (``margin = [0.05 m, 0.05 m/s,
+  1 deg]``, ``stlc.semantics.check.margins``).
+
 ``STLW02`` (an implication that holds only vacuously on the plan) needs the plan:
 ``stlc.analysis.vacuity``.
 """
 
 from __future__ import annotations
 
-from stlc.diagnostics import Diagnostic
+from stlc.diagnostics import Diagnostic, Span
 from stlc.frontend import ast
-from stlc.semantics import model
+from stlc.semantics import model, nnf
+from stlc.semantics.check.margins import units_of
 
 _TEMPORAL = (ast.Temporal, ast.Until)
 #: quantifier domains and the region kinds they range over
@@ -149,8 +155,33 @@ def unused(tree: ast.File, program: model.Program) -> list[Diagnostic]:
     return out
 
 
+def mixed_units(tree: ast.File, program: model.Program) -> list[Diagnostic]:
+    out = []
+    for m in tree.members:
+        mis = program.missions.get(m.name) if isinstance(m, ast.Block) and \
+            m.kind == "mission" else None
+        if mis is None or mis.threshold <= 0 or "margins" in mis.options:
+            continue
+        used = units_of(nnf.normalize(mis.requirement))
+        field = next((x for x in m.members if isinstance(x, ast.Field)
+                      and x.name == "threshold"), None)
+        if len(used) < 2 or field is None:
+            continue
+        names = ", ".join(f"{u} ({n})" for u, n in sorted(used.items(), key=lambda x: -x[1]))
+        span = Span(field.span.file, field.span.line, field.span.col,
+                     field.value.span.end_line, field.value.span.end_col)
+        out.append(Diagnostic(
+            "STLW05", f"one threshold κ = {mis.threshold:g} is asked of predicates in "
+            f"different units: {names} predicate(s)", span,
+            "give a margin per unit, e.g. `margin = ["
+            + ", ".join(f"{mis.threshold:g} {u}" for u in sorted(used)) + "]`",
+            severity="warning"))
+    return out
+
+
 def lint(tree: ast.File, program: model.Program) -> list[Diagnostic]:
     """Every warning about a checked file, in source order."""
     specs = set(program.specs) | {s for m in program.missions.values() for s in m.specs}
-    out = precedence(tree, specs) + unreachable(program) + unused(tree, program)
+    out = precedence(tree, specs) + unreachable(program) + unused(tree, program) + \
+        mixed_units(tree, program)
     return sorted(out, key=Diagnostic.sort_key)

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 from stlc.diagnostics import Span
 from stlc.semantics.ir import Formula
+from stlc.semantics.shapes import Round
 from stlc.semantics.teamform import TeamForm
 from stlc.vehicles.declared import AXES, Multirotor, PointMass, Rotor, Vehicle
 
@@ -38,12 +39,14 @@ class Box:
     """Axis-aligned box ``lo <= p <= hi``; ``frame`` names a human when the box is in that
     human's frame (else world frame).  ``placed`` names a world box whose centre is a
     parameter of the formulas (``Param`` leaves ``<placed>.center.{x,y,z}``, set with
-    ``--set``; ``lo``/``hi`` are its current corners)."""
+    ``--set``; ``lo``/``hi`` are its current corners).  ``shape``: a round region (cylinder,
+    sphere, capsule; ``stlc.semantics.shapes``) whose bounding box ``lo``/``hi`` are."""
 
     lo: Vec3
     hi: Vec3
     frame: str | None = None
     placed: str | None = None
+    shape: Round | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,12 +112,29 @@ class RiskCase:
 
 
 @dataclass(frozen=True, slots=True)
+class RiskLevel:
+    """``require cvar(0.9) >= 0.02 m`` in a ``risk`` block: a level the distribution of the
+    robustness must meet.  ``measure``: ``var`` | ``cvar`` (at ``beta``, in robustness
+    terms: the level kept with probability β / the mean of the worst 1 − β) or
+    ``p_violation`` (P(ρ ≤ 0), judged by its Clopper–Pearson upper bound); ``op``:
+    ``>=`` ``>`` ``<=`` ``<``."""
+
+    measure: str
+    beta: float | None
+    op: str
+    bound: float
+    text: str = ""  # as written, for messages
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
 class RiskConfig:
     cases: tuple[RiskCase, ...]
     K: int = 15000
     betas: tuple[float, ...] = (0.7, 0.8, 0.9)
     delta: float = 0.01
     seed: int = 0
+    levels: tuple[RiskLevel, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -166,12 +186,35 @@ class HumanMove:
 
 
 @dataclass(frozen=True, slots=True)
+class FlightWind:
+    """``wind { velocity = (3, 0, 0) m/s; turbulence = light }``: the air ``stlc fly``
+    flies through — a steady wind (m/s, ENU) and a Dryden turbulence level."""
+
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    turbulence: str = "none"
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class SensorNoise:
+    """``noise { pos = 0.02 m; vel = 0.05 m/s }``: standard deviations of the position and
+    velocity errors the tracking controller of ``stlc fly`` sees."""
+
+    pos: float = 0.0
+    vel: float = 0.0
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
 class SimulateConfig:
-    """A mission's ``simulate { ... }`` block: the events of ``stlc simulate``."""
+    """A mission's ``simulate { ... }`` block: the events of ``stlc simulate`` (and
+    ``stlc fly``'s pushes), and the wind and sensor noise of ``stlc fly``."""
 
     disturbances: tuple[Disturbance, ...] = ()
     failures: tuple[Failure, ...] = ()
     moves: tuple[HumanMove, ...] = ()
+    wind: FlightWind | None = None
+    noise: SensorNoise | None = None
 
 
 @dataclass(frozen=True, slots=True)

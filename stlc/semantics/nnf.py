@@ -7,7 +7,10 @@ every backend interprets the normalised formula (``ir.NNF_NODES``).
 
 from __future__ import annotations
 
+import dataclasses
+
 from stlc.diagnostics import Span
+from stlc.semantics import ir
 from stlc.semantics.ir import (
     Always,
     And,
@@ -116,3 +119,24 @@ def _flat(cls: type, kids: tuple[Formula, ...], span: Span,
     if len(out) == 1:
         return out[0]
     return cls(tuple(out), span)
+
+
+def with_margins(f: ir.Formula, margin: dict[str, float], default: float) -> ir.Formula:
+    """``f`` in normal form with each predicate lowered by the margin of its unit."""
+    memo: dict[int, ir.Formula] = {}
+
+    def go(g: ir.Formula) -> ir.Formula:
+        hit = memo.get(id(g))
+        if hit is None:
+            if isinstance(g, ir.Pred):
+                u = g.origin.unit if g.origin is not None else ""
+                m = margin.get(u, default)
+                # the bound (the limit as written, for reports and separations) is kept
+                hit = g if m == 0 else dataclasses.replace(
+                    g, expr=ir.Bin("-", g.expr, ir.Const(m)))
+            else:
+                hit = ir.map_children(g, go)
+            memo[id(g)] = hit
+        return hit
+
+    return go(normalize(f))

@@ -42,6 +42,7 @@ class Origin:
     bound_text: str = ""
     regions: tuple[str, ...] = ()
     negated: bool = False
+    unit: str = ""  # the unit its robustness is measured in ("m", "m/s", "rad", "Hz", …)
 
     def negation(self) -> Origin:
         return replace(self, negated=not self.negated)

@@ -1,4 +1,4 @@
-"""A mission's formulas over *another team*, without the checker (issue 18).
+"""A mission's formulas over *another team*, without the checker.
 
 The checker expands ``forall d in team`` / ``exists d in team`` into an ``And`` / ``Or``
 over the mission's vehicles.  To judge the executed team of a backup takeover (the backup
@@ -25,7 +25,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 from stlc.diagnostics import Span
-from stlc.semantics import ir
+from stlc.semantics import ir, nnf
 
 __all__ = ["HOLE", "TeamForm", "TeamFormError", "TeamQuant", "for_team", "freeze",
            "instantiate", "rename_expr"]
@@ -185,5 +185,7 @@ def for_team(mission, team: tuple[str, ...]):
         return replace(mission, vehicles=team, simulate=None)
     names = list(tf.specs)
     req, *specs = instantiate([tf.requirement, *(tf.specs[k] for k in names)], team)
+    if "margin_default" in mission.options:  # margins per unit: as the checker applied them
+        req = nnf.with_margins(req, mission.options["margins"], mission.options["margin_default"])
     return replace(mission, vehicles=team, requirement=req, specs=dict(zip(names, specs)),
                    simulate=None)

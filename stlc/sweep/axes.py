@@ -29,6 +29,16 @@ class Axis:
     def text(self, x: float) -> str:
         return f"{x!r} {self.unit}" if self.unit else repr(x)
 
+    def shown(self, si: float) -> float:
+        """An SI value of this axis in the unit it was given in (degrees stay degrees),
+        to 12 significant digits (the round trip through SI is not exact)."""
+        return float(f"{si / self.scale:.12g}")
+
+    @property
+    def label(self) -> str:
+        """``operator.att.z (deg)``: the name with the unit it was given in."""
+        return f"{self.name} ({self.unit})" if self.unit else self.name
+
 
 def _err(path: str, msg: str, hint: str) -> StlcError:
     return StlcError([Diagnostic("STL201", msg, Span(path, 1, 1, 1, 2), hint)])

@@ -38,11 +38,11 @@ A §4.4).{% endif %}</p>
 <h2>Solve time</h2>
 <div id="hist" class="plot"></div>
 <h2>Instances</h2>
-<table><tr><th>#</th>{% for a in axes %}<th>{{ a.name }} (SI)</th>{% endfor %}<th>status</th>
+<table><tr><th>#</th>{% for a in axes %}<th>{{ a.label }}</th>{% endfor %}<th>status</th>
 <th>robustness</th>{% for n in specs %}<th>{{ n }}</th>{% endfor %}<th>iterations</th>
 <th>solve s</th><th>total s</th><th>worker</th><th>plan</th></tr>
 {% for r in rows %}<tr id="i{{ r.instance }}"><td>{{ r.instance }}</td>
-{% for a in axes %}<td>{{ "%.6g"|format(r["values"][a.name]) }}</td>{% endfor %}
+{% for a in axes %}<td>{{ "%.6g"|format(a.shown(r["values"][a.name])) }}</td>{% endfor %}
 <td class="{{ r.status }}" title="{{ r.error }}">{{ r.status }}</td><td>{{ fmt(r.robustness) }}</td>
 {% for n in specs %}<td>{{ fmt(r.specs.get(n)) }}</td>{% endfor %}<td>{{ r.iterations }}</td>
 <td>{{ "%.2f"|format(r.solve_s) }}</td><td>{{ "%.2f"|format(r.total_s) }}</td><td>{{ r.worker }}</td>
@@ -86,6 +86,9 @@ def _data(summary: dict, axes, rows: list[dict]) -> dict:
     d = {"solve": [r["solve_s"] for r in rows if r["status"] != "failed"],
          "p95": (summary.get("solve_s") or {}).get("p95")}
     names = [a.name for a in axes]
+    shown = {a.name: a.shown for a in axes}
+    rows = [{**r, "values": {k: shown[k](v) if k in shown else v
+                             for k, v in r["values"].items()}} for r in rows]
     grid = len(axes) == 2 and len({tuple(r["values"].values()) for r in rows}) == len(rows) \
         and all(a.n > 1 for a in axes) and summary.get("random") is None
     if grid:
@@ -97,11 +100,12 @@ def _data(summary: dict, axes, rows: list[dict]) -> dict:
             i, j = ys.index(r["values"][names[1]]), xs.index(r["values"][names[0]])
             z[i][j] = _num(r["robustness"])
             t[i][j] = f"#{r['instance']} {r['status']}"
-        d.update(kind="heatmap", x=xs, y=ys, z=z, text=t, xname=names[0], yname=names[1])
+        d.update(kind="heatmap", x=xs, y=ys, z=z, text=t, xname=axes[0].label,
+                 yname=axes[1].label)
     else:
         d.update(kind="line" if len(axes) == 1 else "scatter",
                  x=[r["values"][names[0]] for r in rows],
-                 z=[_num(r["robustness"]) for r in rows], text=text, xname=names[0],
+                 z=[_num(r["robustness"]) for r in rows], text=text, xname=axes[0].label,
                  color=[color.get(r["status"], "red") for r in rows])
     return d
 

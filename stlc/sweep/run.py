@@ -69,7 +69,7 @@ def _slots(client, workers: int | None, scheduler: str | None) -> int:
         return 1
 
 
-def _client(workers: int | None, scheduler: str | None, path: str):
+def dask_client(workers: int | None, scheduler: str | None, path: str):
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -91,7 +91,7 @@ def _client(workers: int | None, scheduler: str | None, path: str):
     with dask.config.set(WORKER_CONFIG):
         cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True,
                                dashboard_address=":0", silence_logs=logging.ERROR,
-                               env={"OMP_NUM_THREADS": "1", "STLC_NO_FORK": "1",
+                               env={"OMP_NUM_THREADS": "1",
                                     "STLC_MAP_THREADS": share})
     return Client(cluster), cluster
 
@@ -113,8 +113,9 @@ WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": N
 def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | None,
           workers: int | None = None, scheduler: str | None = None,
           random: int | None = None, seed: int = 0, quiet: bool = False,
-          time_limit: float | None = None) -> int:
-    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``)."""
+          time_limit: float | None = None, collect: list | None = None) -> int:
+    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``);
+    ``collect``: a list that receives the finished rows (the Python API's table)."""
     from stlc.frontend.syntax import parse_file
     from stlc.output.directory import (MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup, preflight,
                                        refuse_foreign)
@@ -176,7 +177,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
 
         from stlc.sweep.task import run_instance
 
-        client, cluster = _client(workers, scheduler, path)
+        client, cluster = dask_client(workers, scheduler, path)
         order = Order([{n: v for n, v, _ in inst} for inst in insts], names)
         pending: set = set()
         finished: queue.SimpleQueue = queue.SimpleQueue()  # futures, as they finish
@@ -264,7 +265,9 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
                              workers, scheduler, interrupted, random, seed, time_limit, lost)
         finally:
             _cleanup(stage)
-    _close(client, cluster)
+    close_client(client, cluster)
+    if collect is not None:
+        collect.extend(rows[i] for i in sorted(rows))
     if interrupted:
         raise KeyboardInterrupt
     if not quiet:
@@ -272,7 +275,17 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     return 0 if summary["counts"].get("satisfied", 0) == len(insts) else 3
 
 
-def _close(client, cluster) -> None:
+@contextlib.contextmanager
+def dask_session(workers: int | None, scheduler: str | None, path: str):
+    """A Dask client (``dask_client``) for the ``with`` block, closed after it."""
+    client, cluster = dask_client(workers, scheduler, path)
+    try:
+        yield client
+    finally:
+        close_client(client, cluster)
+
+
+def close_client(client, cluster) -> None:
     with contextlib.suppress(Exception):
         if client is not None:
             client.close(timeout=5)
@@ -326,7 +339,8 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
     summary = {
         "file": path, "mission": mission, "instances": len(insts), "finished": len(rows),
         "interrupted": interrupted, "counts": counts,
-        "varied": [{"name": a.name, "lo": a.lo * a.scale, "hi": a.hi * a.scale, "n": a.n}
+        "varied": [{"name": a.name, "lo": a.lo * a.scale, "hi": a.hi * a.scale, "n": a.n,
+                    "unit": a.unit or "", "given": {"lo": a.lo, "hi": a.hi}}
                    for a in axes], "set": {n: t for n, t in fixed},
         "wall_s": wall, "per_instance_s": wall / max(len(rows), 1),
         "nlp_builds": sum(1 for r in rows if r.get("built")) + (lost or {}).get("builds", 0),

@@ -20,9 +20,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from stlc.backends.library import LibrarySeed, PlanLibrary
+from stlc.backends import strategy
 
-_LIBRARIES: dict[tuple[str, str], PlanLibrary] = {}
+_LIBRARIES: dict[tuple[str, str], object] = {}  # plan libraries (``strategy.plan_library``)
 
 
 def _worker_name() -> str:
@@ -49,19 +49,19 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     ``preempt``: the name of a Dask ``Event`` the client sets to pre-empt this (cold)
     instance — its solve stops as on its time limit and the row says ``preempted`` (the
     client solves the instance again, warm started: ``stlc.sweep.run``)."""
-    from stlc import deadline
-    from stlc.backends import nlp_cache
+    from stlc import deadline, settings
 
-    os.environ.setdefault("STLC_NO_FORK", "1")  # no fork inside a Dask worker process
     t0 = time.perf_counter()
     row: dict = {"instance": index, "values": values, "status": "failed", "error": "",
                  "robustness": float("nan"), "specs": {}, "iterations": 0, "solve_s": 0.0,
                  "total_s": 0.0, "worker": _worker_name(), "built": False, "warm": "",
                  "plan_csv": None}
-    builds = nlp_cache.STATS["builds"]
+    builds = strategy.nlp_builds()
     fired = threading.Event()
     try:
-        with deadline.bounded(time_limit), preemptible(_event(preempt), fired):
+        # no fork inside a Dask worker process
+        with deadline.bounded(time_limit), preemptible(_event(preempt), fired), \
+                settings.override(no_fork=True):
             row.update(_plan(source, path, mission, items, values, warm, seeds))
     except Exception as e:  # noqa: BLE001 - one instance's failure is a row, not a lost sweep
         from stlc.diagnostics import StlcError
@@ -70,9 +70,9 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
             row["error"] = "; ".join(f"{d.code}: {d.message}" for d in e.diagnostics)
         else:
             row["error"] = f"{type(e).__name__}: {e}"
-            if os.environ.get("STLC_DEBUG"):
+            if settings.debug():
                 row["error"] += "\n" + traceback.format_exc()
-    row["built"] = nlp_cache.STATS["builds"] > builds
+    row["built"] = strategy.nlp_builds() > builds
     row["preempted"] = fired.is_set()
     row["total_s"] = time.perf_counter() - t0
     return row
@@ -143,10 +143,9 @@ _PARSED: dict = {}
 
 def _plan(source: str, path: str, mission: str, items, values, warm: bool,
           seeds: list | None = None) -> dict:
-    from stlc.backends.casadi_backend import CasadiNlp
-    from stlc.backends.nlp_cache import structure_key
+    from stlc.backends.strategy import solve_cost, structure_key
     from stlc.output.solution import trajectory_csv
-    from stlc.pipeline import backend_chain, plan, select_missions, solve_cost
+    from stlc.pipeline import backend_chain, plan, select_missions
     from stlc.planning.problem import from_mission
     from stlc.semantics import overrides
 
@@ -159,25 +158,26 @@ def _plan(source: str, path: str, mission: str, items, values, warm: bool,
     chain = backend_chain(problem)
     lib = None
     seed_label = ""
-    if isinstance(chain[-1], CasadiNlp):
+    if strategy.warm_startable(chain):
         if seeds is not None:  # the client's nearest solved plans, whoever solved them
-            lib = PlanLibrary()
+            lib = strategy.plan_library()
             for v, ch, label in seeds:
                 lib.add(v, ch, label)
         else:  # this worker's own library, per structure (``nlp_cache.structure_key``)
-            lib = _LIBRARIES.setdefault((mission, structure_key(problem)), PlanLibrary())
+            lib = _LIBRARIES.setdefault((mission, structure_key(problem)),
+                                        strategy.plan_library())
         # of the candidates (or the 4 nearest), the most robust at this instance's values
         near = lib.nearest(vals, _scorer(program, m, problem.grid.dt),
                            k=len(seeds) if seeds else 4) if warm else None
         if near is not None:
-            chain = [LibrarySeed(*near, own=chain[0]), chain[-1]]
+            chain = strategy.library_chain(chain, near)
             seed_label = near[1]
     _, sol = plan(program, m, values=vals, chain=chain)
     if lib is not None and sol.status == "satisfied" and seeds is None:
         lib.add(vals, sol.channels, str(values))
-    st = sol.solver
-    tries = st.get("chain", {}).get("next_choices", [])
-    spent = [st["chain"]["first_try"], *tries] if tries else [solve_cost(sol)]
+    chain_rec = sol.solver.chain
+    tries = (chain_rec.next_choices or []) if chain_rec is not None else []
+    spent = [chain_rec.first_try, *tries] if tries else [solve_cost(sol)]
     return {"status": str(sol.status), "robustness": float(sol.robustness_exact),
             "specs": {k: float(v.robustness) for k, v in sol.specs.items()},
             # every try's (a warm start that missed κ, then the instance's own seed)

@@ -82,7 +82,7 @@ def build_arcs(sc: TeamScenario) -> list[Arc]:
     return arcs
 
 
-def _precheck(sc: TeamScenario, arcs: list[Arc]) -> None:
+def precheck(sc: TeamScenario, arcs: list[Arc]) -> None:
     nt = len(sc.targets)
     if not sc.drones:
         raise AssignmentError("the mission has no drones", reason="capacity")

@@ -43,7 +43,7 @@ import scipy.sparse as sp
 
 from stlc.team import TeamScenario
 from stlc.team.arcs import Arc
-from stlc.team.highs import MAX_TIME_S, Result, _quiet_banner, solve_mip
+from stlc.solvers.highs import IncrementalLp, Result, solve_mip
 from stlc.team.pricing import EXACT_LABELS, DroneTrips, Labels, chain, labels
 from stlc.team.trips import Trips, best_order
 
@@ -77,35 +77,27 @@ class CGResult:
 
 
 class _Master:
-    """The restricted master LP (highspy, columns added in place, warm simplex).  Rows:
+    """The restricted master LP (``highs.IncrementalLp``: columns added in place, warm
+    simplex).  Rows:
     targets (= 1), drones (= 1), stations (≤ 1, when exclusive), and the rounded refill
     row ``Σ_r k_r x_r ≥ R`` (``k_r`` station trips of route r) when ``R > 0``."""
 
     def __init__(self, nt: int, nd: int, ns: int, exclusive: bool, big: float, refills: int,
                  refill_price: float):
-        import highspy
-
-        _quiet_banner()
         self.nt, self.nd, self.ns, self.ex, self.refills = nt, nd, ns, exclusive, refills
-        self.h = highspy.Highs()
-        self.h.setOptionValue("output_flag", False)
-        self.h.setOptionValue("threads", 1)
         self.lo = np.concatenate([np.ones(nt + nd), np.full(ns if exclusive else 0, -np.inf),
                                   [refills] if refills else []])
         self.hi = np.concatenate([np.ones(nt + nd), np.ones(ns if exclusive else 0),
                                   [np.inf] if refills else []])
         nrow = len(self.lo)
-        self.h.addRows(nrow, self.lo, self.hi, 0, np.array([], dtype=np.int32),
-                       np.array([], dtype=np.int32), np.array([]))
+        self.lp = IncrementalLp(self.lo, self.hi)
         self.cols: list[Column] = []
         self.big, self.refill_price = big, refill_price
         # artificials (cost P): target j unserved, drone d without a route, a refill
         arts = list(range(nt + nd)) + ([nrow - 1] if refills else [])
         for r in arts:  # (the refill row's at the price of a route: a cheaper early γ)
             price = big if r < nt + nd else refill_price
-            self.h.addCols(1, np.array([price]), np.zeros(1), np.array([np.inf]), 1,
-                           np.array([0], dtype=np.int32), np.array([r], dtype=np.int32),
-                           np.array([1.0]))
+            self.lp.add_cols([price], [0.0], [np.inf], [0], [r], [1.0])
         self.arts = arts
         self.n_art = len(arts)
         self.seen: set[tuple[int, int, int, int]] = set()
@@ -140,22 +132,14 @@ class _Master:
             self.col_vals.append(np.asarray(v))
             index += r
             vals += v
-        self.h.addCols(len(new), np.array([c.cost for c in new]), np.zeros(len(new)),
-                       np.ones(len(new)), len(index), np.array(starts, dtype=np.int32),
-                       np.array(index, dtype=np.int32), np.array(vals))
+        self.lp.add_cols([c.cost for c in new], np.zeros(len(new)), np.ones(len(new)), starts,
+                         index, vals)
         self.cols += new
         self._mat = None
         return len(new)
 
     def solve_lp(self, deadline: float):
-        import highspy
-
-        self.h.setOptionValue("time_limit", min(max(deadline - time.perf_counter(), 1e-3),
-                                                MAX_TIME_S))
-        self.h.run()
-        sol = self.h.getSolution()
-        ok = self.h.getModelStatus() == highspy.HighsModelStatus.kOptimal
-        return ok, self.h.getInfo().objective_function_value, np.asarray(sol.row_dual)
+        return self.lp.solve(deadline - time.perf_counter())
 
     def matrix(self):
         """The constraint matrix (artificials first) and the cost vector."""

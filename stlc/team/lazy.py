@@ -45,7 +45,7 @@ The default is ``w = 0``: the horizon is already a hard per-drone constraint, an
 term weakens the LP bound so much that even the 2×7 mission did not solve in 5 minutes.
 With ``w = 0`` a drone whose help does not pay for its travel goes straight home.
 
-Solver and budget.  Every round is solved by HiGHS through ``stlc.team.highs`` (highspy).
+Solver and budget.  Every round is solved by HiGHS through ``stlc.solvers.highs`` (highspy).
 The loop has a wall-time budget (``BUDGET_S``); when it is still running after
 ``WARM_AFTER_S`` the heuristic of ``stlc.team.local`` (greedy start, local search, own
 station per drone) is computed and handed to HiGHS as the starting incumbent of every
@@ -70,7 +70,8 @@ import scipy.sparse as sp
 from stlc.team import AssignmentError, TeamScenario
 from stlc.team.arcs import Arc
 from stlc.team.cuts import cuts_for, segments, station_shared
-from stlc.team.highs import Result, solve_binary
+from stlc.solvers.highs import Result, solve_binary
+from stlc.solvers.status import SolverStatus
 
 #: options passed to HiGHS; presolve off: on these small models it costs more than it saves
 #: (4×11 mission: 2.3 s instead of 3.5 s CPU over the lazy rounds)
@@ -270,14 +271,14 @@ def lazy_solve(sc: TeamScenario, arcs: list[Arc], limit: float | None, w: float,
             start_routes = None
         cap = min(left, warm_at - now) if cold else left
         res: Result = model.solve(cap if math.isfinite(cap) else None, start)
-        if res.status == "time" and cold and cap < left:
+        if res.status == SolverStatus.MAX_TIME and cold and cap < left:
             continue  # the warm start is due: solve this round again with it
         rounds += 1
         stats.rounds += 1
-        if res.status == "time":  # the best solution so far, if it breaks no lazy row
+        if res.status == SolverStatus.MAX_TIME:  # the best so far, if it breaks no lazy row
             ok = res.x is not None and not _violated(model, arcs, res.x)
             raise Budget(res.x if ok else None, res.bound)
-        if res.status != "optimal" or res.x is None:
+        if res.status != SolverStatus.OPTIMAL or res.x is None:
             return None
         xv, obj = res.x, res.objective
         cuts = _violated(model, arcs, xv)

@@ -41,7 +41,7 @@ import numpy as np
 from stlc.team import AssignmentError, TeamScenario
 from stlc.team.arcs import (  # noqa: F401  (re-exported: the MILP's cost model)
     Arc,
-    _precheck,
+    precheck,
     build_arcs,
     dwell_times,
     leg_time,
@@ -122,7 +122,7 @@ def assign(scenario: TeamScenario, *, makespan_weight: float = 0.0,
     stats = AssignStats()
     sc = scenario
     arcs = build_arcs(sc)
-    _precheck(sc, arcs)
+    precheck(sc, arcs)
     tail = dwell_times(sc)[1] if sc.stations else 0.0
     limit = sc.horizon - tail
     _check_bounds(sc, route_bounds(sc, arcs, tail))

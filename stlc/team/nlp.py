@@ -28,9 +28,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from stlc import deadline
+from stlc.solvers import ipopt as ipopt_solver
 from stlc.team import Drone, TeamPlan, TeamScenario, Visit
 from stlc.team.retime import Schedule
-from stlc.team.waypoints import _locate, check_times, hermite_weights, overshoot
+from stlc.team.waypoints import locate, check_times, hermite_weights, overshoot
 
 _IPOPT = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
           "ipopt.max_iter": 400, "ipopt.tol": 1e-6, "ipopt.mu_strategy": "adaptive"}
@@ -81,7 +82,7 @@ class TeamNLP:
                              shape=(len(seg), self.nw))
 
     def _at(self, d: int, j: int, t: np.ndarray, order: int) -> sp.csr_matrix:
-        seg, s, _ = _locate(self.sched.knots, np.asarray(t, dtype=float))
+        seg, s, _ = locate(self.sched.knots, np.asarray(t, dtype=float))
         return self._rows(d, j, seg, s, order)
 
     def _col(self, d: int, j: int, part: int, k: int) -> int:
@@ -239,7 +240,7 @@ class TeamNLP:
         opts = dict(_IPOPT)
         opts.update(ipopt or {})
         opts.update(deadline.ipopt_options())  # the run's time limit (stlc.deadline)
-        solver = ca.nlpsol("refine", "ipopt", {"x": w, "f": f, "g": gg}, opts)
+        solver = ipopt_solver.solver("refine", {"x": w, "f": f, "g": gg}, opts)
         return (solver, np.concatenate(lb), np.concatenate(ub), lbx, ubx, int(gg.numel()))
 
     def transit_mask(self, name: str) -> np.ndarray:

@@ -36,7 +36,7 @@ import scipy.sparse as sp
 
 from stlc.team import TeamScenario
 from stlc.team.arcs import Arc
-from stlc.team.highs import Result, solve_mip
+from stlc.solvers.highs import Result, solve_mip
 from stlc.team.trips import Trips, best_order, enumerate_trips
 
 
@@ -46,7 +46,7 @@ class Outcome:
     times: dict[str, float]  # route time per drone (the trips' costs), s
     objective: float
     bound: float  # dual bound (= objective when optimal)
-    status: str  # "optimal" | "time" | "infeasible" | "error"
+    status: str  # a ``SolverStatus``: optimal | max_time | infeasible | failed
     columns: int  # trips in the model
 
 

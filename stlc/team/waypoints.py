@@ -32,7 +32,7 @@ def knot_times(horizon: float, knot_dt: float) -> np.ndarray:
     return np.linspace(0.0, horizon, segments + 1)
 
 
-def _locate(knots: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def locate(knots: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     h = float(knots[1] - knots[0])
     seg = np.clip(np.floor((times - knots[0]) / h + 1e-9).astype(int), 0, len(knots) - 2)
     s = np.clip((times - knots[seg]) / h, 0.0, 1.0)
@@ -56,7 +56,7 @@ def hermite_weights(s: np.ndarray, h: float, order: int) -> tuple[np.ndarray, ..
 def hermite_map(knots: np.ndarray, times: np.ndarray, order: int) -> sp.csr_matrix:
     """Sparse (len(times), 2K) map from ``[p; v]`` knot values to the derivative samples."""
     k = len(knots)
-    seg, s, h = _locate(knots, np.asarray(times, dtype=float))
+    seg, s, h = locate(knots, np.asarray(times, dtype=float))
     w = hermite_weights(s, h, order)
     rows = np.repeat(np.arange(len(seg)), 4)
     cols = np.stack([seg, k + seg, seg + 1, k + seg + 1], axis=1).ravel()

@@ -233,6 +233,17 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
         "require eventually[0, 2] (uav1.pos in a) and always[0, 5] (uav1.pos in b)  # a, b "
         "disjoint",
         "require eventually[0, 2] (uav1.pos in a) and always[3, 5] (uav1.pos in b)"),
+    "STL505": (
+        "The start state cannot meet the threshold κ: a predicate that must hold at t = 0 "
+        "(under an `always[0, …]`, a conjunct of the requirement) is below κ on the declared "
+        "start — on a region's boundary, inside an obstacle grown by the vehicle's radius, "
+        "over a limit.  Every plan starts there, so no plan exists; `stlc check` says so at "
+        "once, naming the spec, the predicate, the time and the value.  Move the start, or "
+        "lower κ (or that unit's `margin`).",
+        "  start { pos = (0, 0, 0) m }   # on the floor of workspace = box((-5, -5, 0), ...)\n"
+        "  threshold = 0.1\n  require always[0, 10] (uav1.pos in workspace)",
+        "  start { pos = (0, 0, 1) m }\n  threshold = 0.1\n"
+        "  require always[0, 10] (uav1.pos in workspace)"),
     "STL601": (
         "A file cannot be read (no such file, a folder, no permission).",
         "stlc check misson.stl", "stlc check mission.stl"),
@@ -305,6 +316,16 @@ EXPLANATIONS: dict[str, tuple[str, str, str]] = {
         _m("  spec low = always[0, 5] uav1.pos.z < 3 m\n" + _REQ.replace("0\n", "0 m\n")),
         _m("  spec low = always[0, 5] uav1.pos.z < 3 m\n"
            "  require always[0, 5] uav1.pos.z > 0 m and low\n")),
+    "STLW05": (
+        "Warning.  One unitless `threshold` κ > 0 over predicates measured in different "
+        "units: robustness is in the unit of each predicate, so κ = 0.05 asks 5 cm of a "
+        "position, 0.05 m/s of a speed, 2.9° of an angle and 0.05 Hz of a rotor speed at "
+        "once.  Give a margin per unit instead: `margin = [0.05 m, 0.02 m/s, 1 deg, 1 Hz]` "
+        "(units it does not name keep `threshold`, default 0).",
+        _m("  threshold = 0.2\n  require always[0, 5] (uav1.pos.z > 0 m and uav1.speed "
+           "<= 1 m/s)\n"),
+        _m("  margin = [0.2 m, 0.05 m/s]\n  require always[0, 5] (uav1.pos.z > 0 m and "
+           "uav1.speed <= 1 m/s)\n")),
 }
 
 #: codes whose examples are `.stl` files the checker judges (tested by the suite)

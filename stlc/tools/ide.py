@@ -62,7 +62,8 @@ class Analysis:
 
 def analyze(text: str, path: str) -> Analysis:
     """Parse (recovering from syntax errors) and check ``text``; a file that checks gets
-    the lint warnings of ``stlc check`` (severity "warning")."""
+    the lint warnings of ``stlc check`` (severity "warning") and its STL505 (a start that
+    cannot meet κ)."""
     from stlc.frontend.syntax import parse
     from stlc.semantics.check import check
 
@@ -98,6 +99,9 @@ def analyze(text: str, path: str) -> Analysis:
         from stlc.semantics.lint import lint
 
         diags.extend(lint(tree, an.program))
+        from stlc.analysis.hopeless import hopeless
+
+        diags.extend(hopeless(an.program))  # a start below κ, as `stlc check` says
     return an
 
 
@@ -263,6 +267,19 @@ def spec_robustness(path: str, spec: str) -> str | None:
         f"robustness {r if isinstance(r, str) else format(r, '+.4g')}"
 
 
+#: hover and completion text of the built-in functions that take regions
+FUNCTION_DOCS = {
+    "box": "box(lo, hi) m or box(center = ..., size = ...) m: an axis-aligned box",
+    "cylinder": "cylinder(center = (x, y, z) m, radius = r m, height = h m[, axis = (ux, uy, "
+                "uz)]): a cylinder, vertical unless `axis` is given; `center` is its "
+                "mid-height point",
+    "sphere": "sphere(center = (x, y, z) m, radius = r m): a ball",
+    "capsule": "capsule(a, b, radius): every point within `radius` of the segment a–b",
+    "dist": "dist(p, R): signed distance (m) from the point p to the surface of region R, "
+            "negative inside; dist(p, q): the distance between two points",
+}
+
+
 def hover(an: Analysis, line: int, col: int) -> str | None:
     """Markdown for the name under the cursor."""
     parts = path_at(an.text, line, col)
@@ -280,6 +297,8 @@ def hover(an: Analysis, line: int, col: int) -> str | None:
             if r:
                 text += f"\n\n{r}"
         return text
+    if s is None and len(parts) == 1 and parts[0] in FUNCTION_DOCS:
+        return f"`{parts[0]}`: {FUNCTION_DOCS[parts[0]]}"
     owner = resolve(an, parts[:1], line)
     if owner is None or len(parts) < 2:
         return None
@@ -303,6 +322,9 @@ def _box(an: Analysis, s: Symbol) -> str | None:
             lo = ", ".join(f"{x:g}" for x in r.box.lo)
             hi = ", ".join(f"{x:g}" for x in r.box.hi)
             frame = f" in the frame of `{r.box.frame}`" if r.box.frame else ""
+            if r.box.shape is not None:
+                return f"{r.kind} {r.box.shape.describe()}{frame}, inside the box from " \
+                    f"({lo}) m to ({hi}) m"
             return f"{r.kind} box from ({lo}) m to ({hi}) m{frame}"
     return None
 
@@ -342,6 +364,6 @@ def complete(an: Analysis, line_text: str, line: int) -> list[tuple[str, str, st
             continue
         out.append((s.name, s.kind, s.detail))
     out += [(w, "keyword", "") for w in FORMULA_WORDS + MEMBER_WORDS + DECLARATIONS]
-    out += [(f, "function", "built-in function") for f in FUNCTIONS]
+    out += [(f, "function", FUNCTION_DOCS.get(f, "built-in function")) for f in FUNCTIONS]
     out += [(g, "group", "quantifier domain") for g in GROUPS]
     return out

@@ -4,7 +4,7 @@ Every pass that needs to know what a vehicle *is* — its state layout, dynamics
 start state, derived signals, energy, the fields a formula may read, the kinematic limits
 of an initial guess — asks the registry: ``model_of(vehicle)`` returns the ``VehicleModel``
 registered for the vehicle's class.  Adding a vehicle model is one module here plus one
-``register`` call (see the README, "Adding a vehicle model"); no other module tests the
+``register`` call (see docs/extending.md, "Adding a vehicle model"); no other module tests the
 class of a vehicle.
 """
 
@@ -59,7 +59,7 @@ class VehicleModel(Protocol):
     def guess(self, v, P: np.ndarray, V: np.ndarray, A: np.ndarray, dt: float,
               needed=None) -> tuple[np.ndarray, np.ndarray]: ...
     def plot_bounds(self, v) -> dict[str, list[float]]: ...
-    # asked instead of comparing the kind (issue 18):
+    # asked instead of comparing the kind:
     def formula_fields(self, v) -> dict[str, FormulaField]: ...
     def envelope(self, v, b: Bounds) -> Bounds: ...
     def fit_guess_inputs(self, v, U: np.ndarray, lo: np.ndarray, hi: np.ndarray
@@ -70,6 +70,7 @@ class VehicleModel(Protocol):
     def rotor_forces(self, v) -> tuple[float, float, float] | None: ...
     def linear_model(self, v, dt: float | None = None
                      ) -> tuple[np.ndarray, np.ndarray] | None: ...
+    def knot_step(self, v) -> float: ...  # the coarsest knots a long plan may use (s)
 
 
 _REGISTRY: dict[type, VehicleModel] = {}

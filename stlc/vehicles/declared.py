@@ -42,6 +42,8 @@ class Multirotor:
     span: Span = field(default=NO_SPAN, compare=False)
     #: the body's radius (m): `pos not in R` keeps this clearance (R inflated by it)
     radius: float = 0.0
+    #: the top speed per axis (m/s), optional: a bound of every plan and the guess's speed
+    vel_max: Vec3 | None = None
 
     kind = "multirotor"
 

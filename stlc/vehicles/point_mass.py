@@ -78,6 +78,11 @@ class PointMassModel:
             return np.zeros(X.shape[0])
         return power.energy_profile(v.mass, v.aero, X[:, VEL], dt, U)
 
+    def knot_step(self, v: PointMass) -> float:
+        """Knots of a long plan at most this far apart (s): its acceleration is the input,
+        held between knots, so the path between them is a parabola the knots bound."""
+        return 0.5
+
     def kinematic_limits(self, v: PointMass) -> tuple[np.ndarray, np.ndarray]:
         return np.array(v.vel_max, dtype=float), np.array(v.acc_max, dtype=float)
 

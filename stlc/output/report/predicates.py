@@ -39,6 +39,8 @@ def readable(origin: Origin | None, label: str = "") -> str:
         op = ">=" if origin.side == "lo" else "<="
         where = "outside" if neg else "in"
         region = origin.region_text or origin.region
+        if origin.side == "surface":  # a round region: one predicate, its signed distance
+            return _pretty(f"{origin.subject} {where} {region}")
         return _pretty(f"{origin.subject} {where} {region} "
                        f"({origin.axis} {_FLIP[op] if neg else op} {origin.side})")
     if origin.kind == RANGE:

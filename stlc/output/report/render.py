@@ -33,7 +33,7 @@ from stlc.semantics.model import Mission, Program
 from .view import build_view
 
 #: the view sections the page script needs, written into the JSON data block
-DATA_KEYS = ("scene", "signals", "energy", "team", "risk", "replan")
+DATA_KEYS = ("scene", "signals", "energy", "team", "risk", "replan", "flight")
 #: the risk pass's samples, looked for next to the report
 SAMPLES_FILE = "risk_samples.npz"
 
@@ -105,7 +105,7 @@ def load_samples(path: str | os.PathLike[str]) -> dict[str, np.ndarray] | None:
 
 def write_report(path: str | os.PathLike[str], program: Program, mission: Mission,
                  solution: Solution, risk_samples: Mapping[str, np.ndarray] | None = None,
-                 simulation=None) -> int:
+                 simulation=None, flight=None) -> int:
     """Build, render and write the report atomically; returns the number of bytes written.
 
     ``risk_samples`` defaults to the samples the risk pass left on the Solution (in
@@ -120,7 +120,7 @@ def write_report(path: str | os.PathLike[str], program: Program, mission: Missio
     if risk_samples is None and solution.risk:
         risk_samples = load_samples(target.parent / SAMPLES_FILE)
     data = render_report(build_view(program, mission, solution, risk_samples,
-                                    simulation)).encode("utf-8")
+                                    simulation, flight)).encode("utf-8")
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:

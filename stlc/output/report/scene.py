@@ -1,5 +1,9 @@
 """The 3-D scene of the report: boxes with their world-frame corners, humans, trajectories.
 
+A round region (cylinder, sphere, capsule) has ``shape`` its kind and ``mesh`` its triangle
+mesh and outline (``meshes.round_mesh``); its ``corners`` are then the mesh's vertices (for
+the top view's hull).  A box has ``shape: "box"`` and ``mesh: None``.
+
 Regions in a human's frame are drawn at the human's nominal pose.  Regions that the mission
 never mentions (e.g. the approach corridors of the file's other missions) are kept but
 hidden (``visible: False``; the page shows them as toggles in the 3-D legend only).
@@ -26,6 +30,7 @@ from stlc.semantics.model import Box, Human, Mission, Program
 from stlc.semantics.origin import FACE
 
 from .common import channel, drone_color, fmt, fmt_vec, nums, vehicles
+from .meshes import round_mesh
 from .predicates import mentioned
 
 #: region colours (the papers' convention)
@@ -213,6 +218,12 @@ def scene(program: Program, mission: Mission, sol: Solution) -> dict:
     for r in program.scenario.regions:
         role = region_role(r.kind, r.box.frame, uses.get(r.name, set()))
         corners = box_corners(r.box, humans, (lo, hi))
+        mesh = None
+        if r.box.shape is not None:  # a round region: its mesh and outline
+            h = humans.get(r.box.frame) if r.box.frame else None
+            mesh = round_mesh(r.box.shape, None if h is None else
+                              (lambda v, h=h: np.asarray(h.pos, float) + v @ rotation(h.att).T))
+            corners = mesh.pop("vertices")
         # workspace, obstacles, targets, stations, homes are always shown (a quantifier over
         # `targets` names none of them); free regions only when the mission mentions them
         visible = r.kind != "region" or r.name in used
@@ -223,6 +234,8 @@ def scene(program: Program, mission: Mission, sol: Solution) -> dict:
             "wireframe": role == "workspace", "visible": visible,
             "corners": [nums(c) for c in corners],
             "hull_xy": hull_xy(corners),
+            "shape": r.box.shape.kind if r.box.shape is not None else "box",
+            "mesh": mesh,
         })
     hidden = [b["name"] for b in boxes if not b["visible"]]
     roles = list(dict.fromkeys((b["role_label"], b["color"]) for b in boxes

@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from stlc.analysis import verdict
 from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Program
 
@@ -183,7 +184,7 @@ def _forward(program: Program, mission: Mission, sol: Solution, names: list[str]
 
 def _cell(rho: float | None) -> dict:
     value = num(rho)
-    ok = None if rho is None or (isinstance(rho, float) and math.isnan(rho)) else rho > 0
+    ok = None if rho is None else verdict.judge(rho)  # a drone's own specs: κ = 0
     return {"value": value, "text": fmt(rho, signed=True), "ok": ok,
             "mark": "—" if ok is None else ("✓" if ok else "✗")}
 

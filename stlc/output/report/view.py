@@ -25,12 +25,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from stlc.planning import words
 from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Objective, Program
 from stlc.vehicles import model_of
 
 from .common import anchor, fmt, indexed, num, nums, speed, vehicles
+from .flags import flags
 from .predicates import readable
+from .flight_view import flight as flight_section
 from .replan_view import replan
 from .risk_view import risk
 from .scene import scene
@@ -40,7 +43,7 @@ from .team_view import team
 STATUS_LABELS = {"satisfied": "Satisfied", "violated": "Violated",
                  "solver_failed": "Solver failed", "infeasible": "No plan exists",
                  "stopped": "Stopped (time limit)"}
-STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "smooth ρ̃", "exact": "exact ρ"}
+STAGE_LABELS = {"lam": "λ", "solve_s": "solve (s)", "smooth": "planner ρ̃", "exact": "exact ρ"}
 #: stage columns holding a robustness (shown with a sign)
 SIGNED_STAGE_KEYS = ("smooth", "exact")
 TIMING_ORDER = ("parse_s", "check_s", "build_s", "guess_s", "solve_s", "risk_s", "total_s")
@@ -151,11 +154,11 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
               if k in sol.timing]
     solver_extra = [{"name": str(k), "text": str(v)} for k, v in sol.solver.items()
                     if k not in ("name", "iterations", "return_status", "stages", "chain")]
-    chain = sol.solver.get("chain") or {}
+    chain = sol.solver.chain.to_json() if sol.solver.chain is not None else {}
     chain_text = (f"{chain.get('name', '?')}{' (forced)' if chain.get('forced') else ''}: "
                   + " → ".join(f"{st['backend']} ({st['status']})"
                                for st in chain.get("stages", []))) if chain else "—"
-    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.get("stages") or []
+    stages = [s if isinstance(s, dict) else vars(s) for s in sol.solver.stages or []
               if isinstance(s, dict) or hasattr(s, "__dict__")]
     stage_keys = list(dict.fromkeys(k for s in stages for k in s))
     o = mission.objective
@@ -169,6 +172,7 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "robustness_smooth": num(sol.robustness_smooth),
         "robustness_smooth_text": fmt(sol.robustness_smooth, signed=True),
         "threshold_text": fmt(mission.threshold),
+        "verdict_text": words.verdict_line(sol.status, sol.robustness_exact, mission.threshold),
         "energy": num(sol.energy),
         "energy_text": energy_text,
         "vehicles": [{"name": v, "kind": getattr(program.vehicles.get(v), "kind", "?")}
@@ -179,9 +183,9 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "timing": timing,
         "solve_text": fmt(sol.timing.get("solve_s"), 3, unit="s"),
         "total_text": fmt(sol.timing.get("total_s"), 3, unit="s"),
-        "solver_name": str(sol.solver.get("name", "—")),
-        "iterations": str(sol.solver.get("iterations", "—")),
-        "return_status": str(sol.solver.get("return_status", "—")),
+        "solver_name": str(sol.solver.name or "—"),
+        "iterations": str(_or_dash(sol.solver.iterations)),
+        "return_status": str(_or_dash(sol.solver.return_status)),
         "solver_extra": solver_extra,
         "chain_text": chain_text,
         "smoothing_method": str(smoothing.get("method", "—")),
@@ -252,7 +256,7 @@ def _spec_rows(program: Program, mission: Mission, sol: Solution,
     return rows
 
 
-def _banner(sol: Solution, rows: list[dict]) -> dict | None:
+def _banner(sol: Solution, rows: list[dict], kappa: float) -> dict | None:
     if sol.status == "satisfied":
         return None
     failing = [r for r in rows if not r["satisfied"]]
@@ -261,24 +265,28 @@ def _banner(sol: Solution, rows: list[dict]) -> dict | None:
     if sol.status == "infeasible":
         conflict = ", ".join(f"`{c}`" for c in sol.conflict)
         return {"status": sol.status, "title": "No plan exists", "spec": None,
-                "lead": f"No plan can satisfy this mission: proved infeasible (a MILP over a "
-                        f"relaxation containing every trajectory the vehicles can fly); the "
-                        f"conflicting specs: {conflict}. The plan below is the best attempt."}
+                "lead": f"No plan can reach κ = {fmt(kappa)}: proved by a MILP over a "
+                        f"relaxation containing every trajectory the vehicles can fly; the "
+                        f"conflicting specs: {conflict}. The plan below is the best attempt "
+                        f"(exact robustness ρ = {fmt(sol.robustness_exact, signed=True)})."}
     if sol.status == "solver_failed":
         title = "Solver failed"
-        lead = (f"{sol.solver.get('name', 'The solver')} stopped with return status "
-                f"“{sol.solver.get('return_status', 'unknown')}” after "
-                f"{sol.solver.get('iterations', '?')} iterations; the plan below is its last "
-                f"iterate.")
+        rec = sol.solver
+        lead = (f"{rec.name if 'name' in rec else 'The solver'} stopped with return status "
+                f"“{_or(rec.return_status, 'unknown')}” after "
+                f"{_or(rec.iterations, '?')} iterations; the plan below is its last "
+                f"iterate; {words.impossibility_note(rec.infeasibility)}.")
     elif sol.status == "stopped":
         title = "Stopped by the time limit"
-        lead = (f"The time limit of {sol.solver.get('time_limit_s', '?')} s ended the search "
+        lead = (f"The time limit of {_or(sol.solver.time_limit_s, '?')} s ended the search "
                 f"before a satisfying plan was found; the plan below is the best verified one "
-                f"(exact robustness {fmt(sol.robustness_exact, signed=True)}).")
+                f"(exact robustness ρ = {fmt(sol.robustness_exact, signed=True)} < κ = "
+                f"{fmt(kappa)}); {words.impossibility_note(sol.solver.infeasibility)}.")
     else:
         title = "Mission violated"
-        lead = (f"No satisfying plan was found: exact robustness "
-                f"{fmt(sol.robustness_exact, signed=True)} < 0.")
+        lead = (f"No satisfying plan was found: exact robustness ρ = "
+                f"{fmt(sol.robustness_exact, signed=True)} < κ = {fmt(kappa)}; "
+                f"{words.impossibility_note(sol.solver.infeasibility)}.")
     out = {"status": sol.status, "title": title, "lead": lead, "spec": None}
     if worst is not None and not worst["satisfied"]:
         out["spec"] = {k: worst[k] for k in ("name", "robustness_text", "tightest_text",
@@ -330,12 +338,13 @@ def _source(program: Program, mission: Mission, sol: Solution, rows: list[dict])
 
 def build_view(program: Program, mission: Mission, solution: Solution,
                risk_samples: Mapping[str, np.ndarray] | None = None,
-               simulation=None) -> dict:
+               simulation=None, flight=None) -> dict:
     """Everything the report shows, as plain JSON-serialisable data.
 
     ``risk_samples``: the per-realisation arrays of ``risk_samples.npz`` (keys
     ``<case>/exact/requirement``, …), for the risk histograms.  ``simulation``: the
-    ``stlc.replan.result.SimulationResult`` of ``stlc simulate``, for its section.
+    ``stlc.replan.result.SimulationResult`` of ``stlc simulate``, for its section;
+    ``flight``: ``stlc fly``'s record and flown channels (``flight_view``).
     """
     wins = windows(mission, solution, spec_formulas(program, mission, solution))
     rows = _spec_rows(program, mission, solution, wins)
@@ -343,20 +352,30 @@ def build_view(program: Program, mission: Mission, solution: Solution,
                for r in rows if not r["satisfied"] and r["tightest_time"] is not None]
     en = energy(program, mission, solution)
     summary = _summary(program, mission, solution, en["total_text"])
+    summary["flags"] = flags(program, mission, solution)
     held = sum(r["satisfied"] for r in rows)
     summary["specs_text"] = (f"{held} of {len(rows)} specs hold" if rows
                              else f"κ = {summary['threshold_text']}")
     return {
         "title": f"{summary['mission']} — stlc mission report",
         "summary": summary,
-        "banner": _banner(solution, rows),
+        "banner": _banner(solution, rows, mission.threshold),
         "specs": rows,
         "scene": scene(program, mission, solution),
         "signals": signals(program, mission, solution, wins, rows, markers),
         "energy": en,
         "team": team(program, mission, solution),
         "replan": replan(program, mission, solution, simulation),
+        "flight": flight_section(solution, flight),
         "risk": risk(solution.risk, mission, len(program.source.splitlines()),
                      risk_samples),
         "source": _source(program, mission, solution, rows),
     }
+
+
+def _or_dash(value):
+    return _or(value, "—")
+
+
+def _or(value, default):
+    return default if value is None else value

@@ -74,12 +74,17 @@ def _start(ck: Context, b: ast.Block, keys: dict[str, units.Dim]) -> dict[str, t
 def _multirotor(ck: Context, b: ast.Block) -> model.Multirotor | None:
     f = ck.fields(b, {"mass": True, "inertia": True, "c_f": True, "c_tau": True,
                       "force": True, "rotors": False, "dforce_max": False,
-                      "gravity": False, "radius": False}, sub_blocks=("start", "rotor"))
+                      "gravity": False, "radius": False, "vel_max": False},
+                  sub_blocks=("start", "rotor"))
     mass = ck.num(f, "mass", units.MASS, positive=True)
     c_f = ck.num(f, "c_f", None, positive=True)
     c_tau = ck.num(f, "c_tau", None, positive=True)
     dfmax = ck.num(f, "dforce_max", (1, 1, -3, 0), positive=True)
     gravity = ck.num(f, "gravity", units.ACCEL, 9.81, positive=True)
+    vmax = ck.vec(f, "vel_max", 3, units.SPEED) if "vel_max" in f else None
+    if vmax is not None and min(vmax) <= 0:
+        ck.d.error("STL207", "`vel_max` must be positive", f["vel_max"].value.span)
+        vmax = None
     inertia = None
     if "inertia" in f:
         node = f["inertia"].value
@@ -126,7 +131,8 @@ def _multirotor(ck: Context, b: ast.Block) -> model.Multirotor | None:
         start_att=start.get("att") or (0.0, 0.0, 0.0),
         start_vel=start.get("vel") or (0.0, 0.0, 0.0),
         start_rate=start.get("rate") or (0.0, 0.0, 0.0),
-        dforce_max=dfmax, gravity=gravity, span=b.span, radius=_radius(ck, f))
+        dforce_max=dfmax, gravity=gravity, span=b.span, radius=_radius(ck, f),
+        vel_max=None if vmax is None else tuple(float(x) for x in vmax))  # type: ignore
     _check_hover(ck, v, b)
     return v
 
@@ -271,7 +277,7 @@ def _region(ck: Context, kind: str, name: str, node: ast.Node, span: Span, frame
         ck.failed.add(name)
         return None
     placed = name if frame is None and name in ck.placed else None
-    reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame, placed))
+    reg = RegionV(name, model.Box(v.box.lo, v.box.hi, frame, placed, v.box.shape))
     if placed:  # the centre is a parameter of the formulas (--set NAME.center.x=...)
         for k, a in enumerate("xyz"):
             ck.params[f"{name}.center.{a}"] = (v.box.lo[k] + v.box.hi[k]) / 2

@@ -18,7 +18,7 @@ import numpy as np
 from stlc.diagnostics import Span, did_you_mean
 from stlc.frontend import ast
 from stlc.semantics import ir, model
-from stlc.semantics.check import units
+from stlc.semantics.check import hints, units
 from stlc.semantics.check.context import Context, Scope
 from stlc.semantics.check.values import (
     ERROR,
@@ -108,7 +108,8 @@ class ExpressionElaborator(Context):
                 if not self.finite(np.concatenate([lo, hi]), "the corners of a box", n.span):
                     return ERROR
                 return RegionV(name, model.Box(tuple(map(float, lo)),  # type: ignore[arg-type]
-                                               tuple(map(float, hi)), box.frame))
+                                               tuple(map(float, hi)), box.frame,
+                                               shape=box.shape and box.shape.scaled(scale)))
             case DistV(mean, cov, _):
                 with np.errstate(over="ignore"):  # reported by `value` if not finite
                     return DistV(mean * scale, cov * scale * scale, dim)
@@ -170,6 +171,7 @@ class ExpressionElaborator(Context):
             hint = (f"`{head}` is bound by the quantifier at line {q.line}, whose body ended "
                     "before this operator (its body is a prefix-level formula): parenthesise "
                     "the body, e.g. `forall d in team: (a and b)`") if q is not None else None
+            hint = hint or hints.unknown_name(head, scope.get("team") is not None)
             return self.err("STL101", f"unknown name `{head}`", _head_span(n),
                             hint or self.human_region_hint(head) or did_you_mean(head, cands))
         for i, part in enumerate(n.parts[1:], start=1):
@@ -225,6 +227,8 @@ class ExpressionElaborator(Context):
             case RegionV(name, box):
                 fields = {"lo": Num(np.array(box.lo), units.LENGTH),
                           "hi": Num(np.array(box.hi), units.LENGTH)}
+                if box.shape is not None and part == "radius":
+                    return Num(np.array(box.shape.radius), units.LENGTH)
                 if box.frame is None and part in ("center", "centre"):
                     return Num((np.array(box.lo) + np.array(box.hi)) / 2, units.LENGTH)
                 if part in fields and box.frame is None:
@@ -310,7 +314,7 @@ class ExpressionElaborator(Context):
         fn = self.functions.get(n.fn)
         if fn is None:
             return self.err("STL107", f"unknown function `{n.fn}`", _head_span_call(n),
-                            did_you_mean(n.fn, self.functions) or
+                            hints.unknown_function(n.fn) or did_you_mean(n.fn, self.functions) or
                             "functions: " + ", ".join(sorted(self.functions)))
         return fn(self, n, scope)
 

@@ -5,6 +5,8 @@
       disturb uav1 { time = 11 s; velocity = (0, 0.8, 0) m/s }      # a velocity kick)
       fail uav1 { time = 60 s; backup = uav3 }                      # paper B §IV-C
       move operator { time = 8 s; pos = (1, 0.2, 0) m; att = (0, 0, 20) deg }  # paper A §6
+      wind { velocity = (3, 0, 0) m/s; turbulence = light }         # `stlc fly`'s air
+      noise { pos = 0.02 m; vel = 0.05 m/s }                        # and sensors
     }
 
 ``event_problems`` holds the rules shared with events given on the command line
@@ -22,6 +24,8 @@ from stlc.semantics.check import units
 from stlc.semantics.check.context import Context
 
 EVENT_KINDS = ("disturb", "fail", "move")
+FLIGHT_KINDS = ("wind", "noise")  # one each, no name: the air and sensors of `stlc fly`
+TURBULENCE = ("none", "light", "moderate", "severe")
 
 
 def event_problems(vehicles: dict[str, model.Vehicle], mission_vehicles: tuple[str, ...],
@@ -66,7 +70,17 @@ def check_simulate(ck: Context, b: ast.Block, vehicles: tuple[str, ...],
     dist: list[model.Disturbance] = []
     fails: list[model.Failure] = []
     moves: list[model.HumanMove] = []
+    flight: dict[str, object] = {}
     for m in sb.members:
+        if isinstance(m, ast.Block) and m.kind in FLIGHT_KINDS:
+            if m.name:
+                ck.d.error("STL108", f"`{m.kind}` applies to every vehicle of the mission",
+                           m.name_span, f"write `{m.kind} {{ ... }}` without a name")
+            elif m.kind in flight:
+                ck.d.error("STL102", f"a `simulate` block has one `{m.kind}`", m.span)
+            else:
+                flight[m.kind] = _wind(ck, m) if m.kind == "wind" else _noise(ck, m)
+            continue
         if not isinstance(m, ast.Block):
             ck.d.error("STL108", "a `simulate` block holds only `disturb`, `fail` and `move` "
                        "blocks", m.span,
@@ -75,7 +89,7 @@ def check_simulate(ck: Context, b: ast.Block, vehicles: tuple[str, ...],
                        "`move operator { time = 8 s; pos = (1, 0, 0) m }`")
             continue
         if m.kind not in EVENT_KINDS:
-            ck.bad_kind(m.kind, m.span, EVENT_KINDS, "in `simulate`")
+            ck.bad_kind(m.kind, m.span, EVENT_KINDS + FLIGHT_KINDS, "in `simulate`")
             continue
         if not m.name:
             who = "human who moves" if m.kind == "move" else "vehicle it applies to"
@@ -106,7 +120,38 @@ def check_simulate(ck: Context, b: ast.Block, vehicles: tuple[str, ...],
     for extra in moves[1:]:
         ck.d.error("STL401", "one operator move per simulation", extra.span,
                    "simulate the moves one at a time")
-    return model.SimulateConfig(tuple(dist), tuple(fails), tuple(moves))
+    return model.SimulateConfig(tuple(dist), tuple(fails), tuple(moves),
+                                flight.get("wind"), flight.get("noise"))  # type: ignore[arg-type]
+
+
+def _wind(ck: Context, m: ast.Block) -> model.FlightWind | None:
+    f = ck.fields(m, {"velocity": False, "turbulence": False})
+    v = ck.vec(f, "velocity", 3, units.SPEED, (0.0, 0.0, 0.0))
+    level = "none"
+    node = f["turbulence"].value if "turbulence" in f else None
+    if node is not None:
+        name = node.parts[0] if isinstance(node, ast.Path) and len(node.parts) == 1 else None
+        if name not in TURBULENCE:
+            ck.d.error("STL108", "`turbulence` is one of " + ", ".join(TURBULENCE), node.span,
+                       did_you_mean(name or "", TURBULENCE) or "write `turbulence = light`")
+            return None
+        level = name
+    if v is None:
+        return None
+    return model.FlightWind(v, level, m.span)  # type: ignore[arg-type]
+
+
+def _noise(ck: Context, m: ast.Block) -> model.SensorNoise | None:
+    f = ck.fields(m, {"pos": False, "vel": False})
+    pos = ck.num(f, "pos", units.LENGTH, 0.0)
+    vel = ck.num(f, "vel", units.SPEED, 0.0)
+    if pos is None or vel is None:
+        return None
+    if pos < 0 or vel < 0:
+        ck.d.error("STL108", "a noise level is a standard deviation (not negative)", m.span,
+                   "write `noise { pos = 0.02 m; vel = 0.05 m/s }`")
+        return None
+    return model.SensorNoise(pos, vel, m.span)
 
 
 def _disturb(ck: Context, m: ast.Block) -> model.Disturbance | None:

@@ -34,13 +34,13 @@ from stlc.semantics.check.values import (
     add,
     box_faces,
     broadcast,
-    const,
+    distance_expr,
     finite_expr,
     kind_name,
-    mul,
     neg,
     sub,
     to_sym,
+    world_to_frame,
 )
 from stlc.semantics.origin import COMPARE, FACE, RANGE, Origin
 
@@ -205,7 +205,8 @@ class FormulaElaborator(Context):
         preds = []
         la, lb = _labels(sa, len(items)), _labels(sb, len(items))
         origin = Origin(COMPARE, label, op=n.op, left=self.text(n.left.span),
-                        right=self.text(n.right.span), regions=self._regions_read(n, scope))
+                        right=self.text(n.right.span), regions=self._regions_read(n, scope),
+                        unit=units.unit_name(units.join(sa.dim, sb.dim)))
         for k, (x, y) in enumerate(items):
             e = sub(x, y) if n.op in (">", ">=") else sub(y, x)
             lab = label if len(items) == 1 else f"{label} [{k + 1}]"
@@ -285,7 +286,8 @@ class FormulaElaborator(Context):
             preds = []
             lv = _labels(v, len(i1)) if isinstance(v, Sym) else [label] * len(i1)
             calls = _ast_calls(n.arg)
-            side = Origin(RANGE, label, subject=self.text(n.arg.span))
+            side = Origin(RANGE, label, subject=self.text(n.arg.span),
+                          unit=units.unit_name(units.join(p1[0].dim, p1[1].dim)))
             o_lo = dataclasses.replace(side, side="lower", bound_text=self.text(n.region.lo.span))
             o_hi = dataclasses.replace(side, side="upper", bound_text=self.text(n.region.hi.span))
             for k, ((x, lo_e), (_, hi_e)) in enumerate(zip(i1, i2)):
@@ -302,8 +304,9 @@ class FormulaElaborator(Context):
                 return reg
             if not isinstance(reg, RegionV):
                 return self.err("STL208", f"expected a region after `in`, found {kind_name(reg)}",
-                                n.region.span, "regions are boxes: workspace, obstacles, "
-                                "targets, a human's regions, or box(lo, hi)")
+                                n.region.span, "regions are boxes and round shapes: workspace, "
+                                "obstacles, targets, a human's regions, box(lo, hi), "
+                                "cylinder(...), sphere(...), capsule(...)")
             if isinstance(v, Num):
                 v = to_sym(v)
             if not isinstance(v, Sym) or len(v.items) != 3:
@@ -317,7 +320,7 @@ class FormulaElaborator(Context):
             f = box_membership(v.items, reg, self.text(n.span), n.span,
                                Origin(FACE, self.text(n.span), subject=self.text(n.arg.span),
                                       region=reg.name, region_text=self.text(n.region.span),
-                                      regions=(reg.name,) if reg.name else ()))
+                                      regions=(reg.name,) if reg.name else (), unit="m"))
         return Form(ir.Not(f, n.span) if n.negated else f)
 
     def _radius_of(self, items: tuple[ir.Expr, ...]) -> float:
@@ -379,18 +382,24 @@ def inflated(reg: RegionV, r: float) -> RegionV:
     if r <= 0:
         return reg
     b = reg.box
-    box = dataclasses.replace(b, lo=tuple(x - r for x in b.lo), hi=tuple(x + r for x in b.hi))
+    box = dataclasses.replace(b, lo=tuple(x - r for x in b.lo), hi=tuple(x + r for x in b.hi),
+                              shape=b.shape.grown(r) if b.shape is not None else None)
     return dataclasses.replace(reg, box=box)
 
 
 def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span,
                    origin: Origin | None = None) -> ir.Formula:
     """``p in box`` as six predicates, in the human's frame when the box is attached to one;
-    each face's ``origin`` (``origin`` with its axis and side) says which face it is."""
+    each face's ``origin`` (``origin`` with its axis and side) says which face it is.  A
+    round region is one predicate, ``−dist(p, R) ≥ 0`` (origin side ``surface``)."""
     box = reg.box
+    o = origin or Origin(FACE, label, region=reg.name, regions=(reg.name,) if reg.name else (),
+                         unit="m")
+    if box.shape is not None:  # a round region: −(signed distance) ≥ 0, one predicate
+        sd = distance_expr(p, box, world_to_frame)
+        return ir.Pred(neg(sd), label, span, origin=dataclasses.replace(o, side="surface"))
     if box.frame is not None:
         p = world_to_frame(p, box.frame)
-    o = origin or Origin(FACE, label, region=reg.name, regions=(reg.name,) if reg.name else ())
     preds = []
     for k, axis in enumerate("xyz"):
         lo, hi = box_faces(box, k)
@@ -400,30 +409,6 @@ def box_membership(p: tuple[ir.Expr, ...], reg: RegionV, label: str, span: Span,
                              origin=dataclasses.replace(o, axis=axis, side="hi")))
     return ir.And(tuple(preds), span)
 
-
-
-def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
-    """R(att)ᵀ (p − pos) with R = Rz(yaw) Ry(pitch) Rx(roll), pose as IR parameters."""
-    d = [sub(p[k], ir.Param(f"{human}.pos.{a}")) for k, a in enumerate("xyz")]
-    r, pi_, y = (ir.Param(f"{human}.att.{a}") for a in "xyz")
-    cr, sr = ir.Call("cos", (r,)), ir.Call("sin", (r,))
-    cp, sp = ir.Call("cos", (pi_,)), ir.Call("sin", (pi_,))
-    cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
-    # rows of R^T = columns of R
-    R = [
-        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)),
-         add(mul(mul(cy, sp), cr), mul(sy, sr))],
-        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)),
-         sub(mul(mul(sy, sp), cr), mul(cy, sr))],
-        [neg(sp), mul(cp, sr), mul(cp, cr)],
-    ]
-    out = []
-    for j in range(3):  # (R^T d)_j = sum_i R[i][j] d_i
-        acc: ir.Expr = const(0.0)
-        for i in range(3):
-            acc = add(acc, mul(R[i][j], d[i]))
-        out.append(acc)
-    return tuple(out)
 
 
 def _unit_hint(want, got) -> str | None:

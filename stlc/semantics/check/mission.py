@@ -22,13 +22,13 @@ MISSION_FIELDS = {
     "threshold": False, "smoothing": False, "lambda": False, "forward_speed": False,
     "integrator": False, "max_iter": False, "install_time": False, "refill_time": False,
     "backend": False,
-    "time_limit": False, "end": False,
+    "time_limit": False, "end": False, "margin": False,
 }
 MISSION_BLOCKS = ("risk", "replan", "compare", "simulate")
 MAX_SAMPLES = 20_000
 MAX_COUNT = 10**9  # sample counts, iteration limits
 MAX_SEED = 2**63 - 1
-MAX_K = 10**6  # risk realisations (issue 20 runs 1,000,000, also across Dask workers); the
+MAX_K = 10**6  # risk realisations (1,000,000 run, also across Dask workers); the
 #: risk pass works in chunks bounded by the trace length, so memory stays bounded
 OBJECTIVE_TERMS = ("robustness", "energy", "forward_cost")
 

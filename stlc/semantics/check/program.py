@@ -18,11 +18,12 @@ from dataclasses import replace
 from stlc.diagnostics import StlcError
 from stlc.frontend import ast
 from stlc.semantics import ir, model
-from stlc.semantics.check import builtins, declarations
+from stlc.semantics.check import builtins, declarations, geometry, margins
 from stlc.semantics.check.elaborate import ExpressionElaborator
 from stlc.semantics.check.events import check_simulate
 from stlc.semantics.check.formulas import FormulaElaborator
 from stlc.semantics.check.mission import check_mission
+from stlc.semantics.check.risklevel import with_levels
 from stlc.semantics.check.teams import TeamTemplates
 from stlc.semantics.check.values import Sym
 
@@ -47,7 +48,8 @@ def check(tree: ast.File, placed: frozenset[str] = frozenset()) -> model.Program
 class Checker(ExpressionElaborator, FormulaElaborator, TeamTemplates):
     """One checker pass over a file."""
 
-    functions = builtins.FUNCS
+    functions = {**builtins.FUNCS, **geometry.FUNCS,  # cylinder, sphere, capsule
+                 "dist": geometry.distance_or(builtins.FUNCS["dist"])}  # dist(p, R) too
 
     def uncertain(self, m: ast.Uncertain, human: str | None, attach: bool = True
                   ) -> model.Normal | None:
@@ -79,9 +81,11 @@ class Checker(ExpressionElaborator, FormulaElaborator, TeamTemplates):
             if isinstance(m, ast.Block) and m.kind == "mission":
                 mis = check_mission(self, m, specs)
                 if mis is not None:
+                    mis = margins.apply(self, m, mis)  # κ by unit (``margin = [...]``)
                     delay = (mis.replan or model.ReplanConfig()).takeover_delay
                     mis = replace(mis, simulate=check_simulate(self, m, mis.vehicles,
-                                                               mis.horizon, delay))
+                                                               mis.horizon, delay),
+                                  risk=with_levels(self, m, mis.risk))
                     missions[mis.name] = mis
             elif isinstance(m, ast.Block) and m.kind not in ("vehicle", "scenario"):
                 self.bad_kind(m.kind, m.span, TOP_KINDS, "at the top level")

@@ -140,3 +140,15 @@ def compatible(a: Dim | None, b: Dim | None) -> bool:
 
 def join(a: Dim | None, b: Dim | None) -> Dim | None:
     return a if a is not None else b
+
+
+#: the unit a predicate's robustness is measured in, by dimension (``Origin.unit``)
+UNIT_NAMES = {LENGTH: "m", SPEED: "m/s", ANGLE: "rad", FREQ: "Hz", TIME: "s",
+              ACCEL: "m/s^2", FORCE: "N", MASS: "kg", DIMLESS: "1"}
+
+
+def unit_name(dim: Dim | None) -> str:
+    """The unit of a dimension ("" when unknown: a bare number compared with a bare one)."""
+    if dim is None:
+        return ""
+    return UNIT_NAMES.get(dim) or describe(dim).removeprefix("a quantity in ")

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlc.semantics import ir, model, nnf
+from stlc.semantics import ir, model, nnf, shapes
 from stlc.semantics.check.units import Dim
 
 
@@ -43,7 +43,7 @@ class Form:
 @dataclass(frozen=True)
 class RegionV:
     name: str
-    box: model.Box
+    box: model.Box  # a round region's bounding box, with the shape in ``box.shape``
 
 
 @dataclass(frozen=True)
@@ -155,6 +155,10 @@ def neg(a: ir.Expr) -> ir.Expr:
 
 
 def call(fn: str, *args: ir.Expr) -> ir.Expr:
+    if fn in shapes.SD_FUNCS:
+        if all(isinstance(a, ir.Const) for a in args):
+            return const(shapes.fold(fn, [a.value for a in args]))  # type: ignore[union-attr]
+        return ir.Call(fn, tuple(args))
     if all(isinstance(a, ir.Const) for a in args):
         vals = [a.value for a in args]  # type: ignore[union-attr]
         with np.errstate(all="ignore"):
@@ -211,3 +215,41 @@ def box_faces(box: model.Box, k: int) -> tuple[ir.Expr, ir.Expr]:
     c = ir.Param(f"{box.placed}.center.{'xyz'[k]}")
     h = const((box.hi[k] - box.lo[k]) / 2)
     return sub(c, h), add(c, h)
+
+
+def world_to_frame(p: tuple[ir.Expr, ...], human: str) -> tuple[ir.Expr, ...]:
+    """R(att)ᵀ (p − pos) with R = Rz(yaw) Ry(pitch) Rx(roll), pose as IR parameters."""
+    d = [sub(p[k], ir.Param(f"{human}.pos.{a}")) for k, a in enumerate("xyz")]
+    r, pi_, y = (ir.Param(f"{human}.att.{a}") for a in "xyz")
+    cr, sr = ir.Call("cos", (r,)), ir.Call("sin", (r,))
+    cp, sp = ir.Call("cos", (pi_,)), ir.Call("sin", (pi_,))
+    cy, sy = ir.Call("cos", (y,)), ir.Call("sin", (y,))
+    # rows of R^T = columns of R
+    R = [
+        [mul(cy, cp), sub(mul(mul(cy, sp), sr), mul(sy, cr)),
+         add(mul(mul(cy, sp), cr), mul(sy, sr))],
+        [mul(sy, cp), add(mul(mul(sy, sp), sr), mul(cy, cr)),
+         sub(mul(mul(sy, sp), cr), mul(cy, sr))],
+        [neg(sp), mul(cp, sr), mul(cp, cr)],
+    ]
+    out = []
+    for j in range(3):  # (R^T d)_j = sum_i R[i][j] d_i
+        acc: ir.Expr = const(0.0)
+        for i in range(3):
+            acc = add(acc, mul(R[i][j], d[i]))
+        out.append(acc)
+    return tuple(out)
+
+
+def distance_expr(p, box: model.Box, to_frame) -> shapes.ir.Expr:
+    """The signed distance expression of ``box`` (a box or a round region) at the world
+    point ``p``; ``to_frame(p, human)`` maps a world point into a human's frame."""
+    if box.frame is not None:
+        p = to_frame(tuple(p), box.frame)
+    if box.shape is None:
+        c = tuple((a + b) / 2 for a, b in zip(box.lo, box.hi))
+        q = shapes.local(tuple(p), shapes.centre_exprs(c, box.placed), None)
+    else:
+        q = shapes.local(tuple(p), shapes.centre_exprs(box.shape.center, box.placed),
+                         box.shape.axis)
+    return shapes.sd_expr(q, box.lo, box.hi, box.shape)

@@ -55,7 +55,8 @@
   /* ------------------------------------------------------------------ scene */
   function edgeTrace(b) {
     var x = [], y = [], z = [];
-    EDGES.forEach(function (e) {
+    if (b.mesh) { x = b.mesh.outline[0]; y = b.mesh.outline[1]; z = b.mesh.outline[2]; }
+    else EDGES.forEach(function (e) {
       [e[0], e[1]].forEach(function (k) { var c = b.corners[k]; x.push(c[0]); y.push(c[1]); z.push(c[2]); });
       x.push(null); y.push(null); z.push(null);
     });
@@ -65,10 +66,11 @@
              line: { color: b.color, width: b.wireframe ? 1.5 : 3 } };
   }
   function meshTrace(b) {
-    return { type: "mesh3d", x: b.corners.map(function (c) { return c[0]; }),
-             y: b.corners.map(function (c) { return c[1]; }),
-             z: b.corners.map(function (c) { return c[2]; }),
-             i: TRI_I, j: TRI_J, k: TRI_K, color: b.color, opacity: 0.22, flatshading: true,
+    var m = b.mesh || { x: b.corners.map(function (c) { return c[0]; }),
+                        y: b.corners.map(function (c) { return c[1]; }),
+                        z: b.corners.map(function (c) { return c[2]; }), i: TRI_I, j: TRI_J, k: TRI_K };
+    return { type: "mesh3d", x: m.x, y: m.y, z: m.z,
+             i: m.i, j: m.j, k: m.k, color: b.color, opacity: 0.22, flatshading: !b.mesh,
              name: txt(b.label), legendgroup: "box-" + b.name, showlegend: true,
              visible: b.visible ? true : "legendonly",
              hovertemplate: txt(b.name) + " · " + b.role_label + "<extra></extra>" };
@@ -93,8 +95,10 @@
     });
     s.trajectories.forEach(function (tr, n) {
       /* a team: one colour per drone along its path, time on the dots */
+      /* the legend entry is the start marker (plain colours): a legend draws a trace's line
+         with one colour, and a line coloured by time would give plotly an array there */
       traces.push({ type: "scatter3d", mode: "lines+markers", x: tr.x, y: tr.y, z: tr.z,
-                    name: txt(tr.vehicle), customdata: tr.t, showlegend: true, legendgroup: "v-" + tr.vehicle,
+                    name: txt(tr.vehicle), customdata: tr.t, showlegend: false, legendgroup: "v-" + tr.vehicle,
                     line: s.per_drone ? { color: tr.color, width: 5 }
                                       : { color: tr.t, colorscale: "Viridis", width: 6 },
                     marker: { size: s.per_drone ? 1.5 : 2.5, color: tr.t, colorscale: "Viridis", showscale: n === 0,
@@ -103,10 +107,11 @@
                                           yanchor: "top" } },
                     hovertemplate: txt(tr.vehicle) + "<br>t = %{customdata} s<br>(%{x}, %{y}, %{z})<extra></extra>" });
       traces.push({ type: "scatter3d", mode: "markers+text", x: [tr.x[0]], y: [tr.y[0]], z: [tr.z[0]],
-                    name: txt(tr.vehicle) + " start", showlegend: false, text: [txt(tr.vehicle)],
+                    name: txt(tr.vehicle), showlegend: true, text: [txt(tr.vehicle)],
                     legendgroup: "v-" + tr.vehicle, textposition: "bottom center",
                     hovertemplate: txt(tr.vehicle) + " start<extra></extra>",
-                    marker: { size: 5, color: "#fff", line: { color: "#111", width: 2 }, symbol: "circle" } });
+                    marker: { size: 5, color: s.per_drone ? tr.color : "#fff", line: { color: "#111", width: 2 },
+                              symbol: "circle" } });
     });
     var ax = function (t) { return { title: { text: t }, backgroundcolor: "#f7f9fb", showbackground: true,
                                      gridcolor: "#dde2e8", zerolinecolor: "#b8c0cc" }; };
@@ -436,6 +441,32 @@
     }
   }
 
+  /* ------------------------------------------------------------------ closed-loop flight */
+  function flightPlots(fl, sc) {
+    var tt = [];
+    sc.boxes.forEach(function (b) {
+      if (!b.visible) return;
+      tt.push({ type: "scatter", mode: "lines", x: b.hull_xy.map(function (p) { return p[0]; }),
+                y: b.hull_xy.map(function (p) { return p[1]; }), name: txt(b.name), showlegend: false,
+                line: { color: b.color, width: 1 }, hoverinfo: "skip" });
+    });
+    fl.paths.forEach(function (p) {
+      [["plan", fl.colors.plan, "dash", 2], ["flown", p.color, "solid", 3]].forEach(function (k) {
+        var xy = p[k[0]];
+        if (!xy) return;
+        tt.push({ type: "scatter", mode: "lines", x: xy[0], y: xy[1], name: txt(p.vehicle) + " " + k[0],
+                  line: { color: k[1], width: k[3], dash: k[2] } });
+      });
+    });
+    draw("flight-top", tt, baseLayout({ title: title("Plan and flown paths (top view)"), hovermode: "closest",
+      xaxis: { title: { text: "x (m)" }, gridcolor: GRID },
+      yaxis: { title: { text: "y (m)" }, gridcolor: GRID, scaleanchor: "x" } }));
+    draw("flight-error", [{ type: "scatter", mode: "lines", x: fl.error.t, y: fl.error.e,
+                            name: "tracking error", line: { width: 2 } }],
+      baseLayout({ title: title("Tracking error ‖p_flown − p_plan‖"), xaxis: timeAxis({ title: { text: "t" } }),
+                   yaxis: { title: { text: "m" }, gridcolor: GRID } }));
+  }
+
   if (typeof Plotly === "undefined") {
     console.error("plotly.js is missing from the report");
     return;
@@ -449,6 +480,7 @@
     if (data.team.forward) forwardPlot(data.team.forward);
   }
   if (data.replan) replanPlots(data.replan, data.scene);
+  if (data.flight) flightPlots(data.flight, data.scene);
   if (data.energy.profiles.length) energyPlot(data.energy);
   if (data.risk) data.risk.cases.forEach(function (c) { if (c.histogram) riskPlot(c); });
 })();

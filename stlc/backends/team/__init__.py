@@ -1,0 +1,1 @@
+"""The team family (paper B): the task-assignment seed and the waypoint refinement."""

@@ -1,0 +1,96 @@
+"""Settings of a run: the one module of ``stlc`` that reads the process environment.
+
+Every other module asks this one.  The environment holds only what a developer or a host
+sets for a whole process; the algorithm has no on/off switches here (its choices are
+constants of the modules that make them, or typed options of the problem and backends).
+
+* ``STLC_DEBUG`` — a traceback beside an internal error's diagnostic (``debug``);
+* ``STLC_DEFAULT_TIME_LIMIT`` — the time limit of a run that gives none, in seconds
+  (``default_time_limit``; ``stlc.deadline``);
+* ``STLC_IPOPT`` — extra IPOPT options as JSON, e.g. ``'{"ipopt.print_level": 5}'``
+  (``ipopt_options``; read once per process, so a cached NLP never meets other options);
+* ``STLC_MAP_THREADS`` — threads of the derivatives' map (``map_threads``; a sweep's
+  local cluster gives each worker process its share of the cores);
+* ``STLC_NO_FORK`` — solve "apart" work in-process instead of in a forked child
+  (``no_fork``); a caller that must not fork (a Dask worker's task) says so with
+  ``override(no_fork=True)`` for its own work instead of changing the environment.
+
+``limit_solver_threads`` is the CLI entry point's: one OpenMP/BLAS thread unless the user
+set these already (IPOPT's MUMPS and BLAS start one thread per core; on small KKT systems
+the threads only contend).  Importing ``stlc`` changes nothing in the process.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import functools
+import json
+import math
+import os
+from collections.abc import Iterator
+
+_OVERRIDES: contextvars.ContextVar[dict] = contextvars.ContextVar("stlc_settings", default={})
+SOLVER_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _get(name: str, env: str) -> str:
+    over = _OVERRIDES.get()
+    if name in over:
+        return over[name]
+    return os.environ.get(env, "")
+
+
+@contextlib.contextmanager
+def override(**values) -> Iterator[None]:
+    """Settings for the work inside the block (this thread and context only):
+    ``override(no_fork=True)``."""
+    strs = {k: ("1" if v is True else "0" if v is False else str(v)) for k, v in values.items()}
+    token = _OVERRIDES.set({**_OVERRIDES.get(), **strs})
+    try:
+        yield
+    finally:
+        _OVERRIDES.reset(token)
+
+
+def debug() -> bool:
+    return bool(_get("debug", "STLC_DEBUG"))
+
+
+def no_fork() -> bool:
+    return _get("no_fork", "STLC_NO_FORK") == "1"
+
+
+def map_threads(default: int) -> int:
+    """``STLC_MAP_THREADS`` when it is a whole number, else ``default``."""
+    cap = _get("map_threads", "STLC_MAP_THREADS")
+    return int(cap) if cap.isdigit() else default
+
+
+def default_time_limit(default: float) -> float:
+    """``STLC_DEFAULT_TIME_LIMIT`` when it is a positive number of seconds, else ``default``."""
+    with contextlib.suppress(ValueError):
+        x = float(_get("default_time_limit", "STLC_DEFAULT_TIME_LIMIT"))
+        if math.isfinite(x) and x > 0:
+            return x
+    return default
+
+
+@functools.cache
+def ipopt_options() -> dict:
+    """``STLC_IPOPT`` as a dict (empty when unset), read once per process."""
+    return dict(json.loads(os.environ.get("STLC_IPOPT", "") or "{}"))
+
+
+def environment() -> dict[str, str]:
+    """The process environment, for a child process started with it."""
+    return dict(os.environ)
+
+
+def limit_solver_threads() -> None:
+    """One OpenMP/BLAS thread each, unless the user set these already (the CLI's start):
+    IPOPT's sparse solver (MUMPS) and BLAS would start one thread per core, and on small
+    KKT systems (~10k rows) the threads only contend (a solve spent 4x more wall time than
+    CPU time in the linear solver on a 2-core machine)."""
+    for var in SOLVER_THREAD_VARS:
+        os.environ.setdefault(var, "1")
