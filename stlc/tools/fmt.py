@@ -15,7 +15,8 @@ comment after code stays at the end of the line that holds the code it followed.
 
 The result is checked before anything is written: it must parse to the same AST as the
 input (else an internal error, and the file is not touched).  Files are replaced
-atomically (a temporary file in the same folder, then ``os.replace``).
+atomically (``stlc.tools.fmt_command``: a temporary file in the same folder, then
+``os.replace``).
 """
 
 from __future__ import annotations
