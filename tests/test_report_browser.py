@@ -245,8 +245,8 @@ def compiled(tmp_path_factory):
 
 def test_real_compiled_mission_renders_in_chromium(browser, compiled):
     outdir = compiled["team"]
-    assert sorted(os.listdir(outdir)) == [".stlc-outputs.json", "report.html", "risk.json",
-                                          "risk_samples.npz",
+    assert sorted(os.listdir(outdir)) == [".stlc-outputs.json", "flight", "report.html",
+                                          "risk.json", "risk_samples.npz", "rosbag2",
                                           "solution.json", "trajectory.csv"]
     page, errors, outside = open_report(browser, outdir / "report.html")
     try:
