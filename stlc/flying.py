@@ -29,7 +29,7 @@ from stlc import deadline
 from stlc.analysis import verdict
 from stlc.diagnostics import Diagnostic, Span, StlcError
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
-from stlc.pipeline import load, mission_span, plan_in_time, select_missions
+from stlc.pipeline import load, mission_span, one_mission, plan_in_time
 from stlc.strictjson import channels_csv, json_number, strict_dumps
 
 DEFAULT_BETAS = (0.7, 0.8, 0.9)
@@ -49,12 +49,7 @@ def fly_file(path: str, out: str | None = None, mission: str | None = None, *,
     t0 = time.perf_counter()
     loaded = load(path, sets)
     program = loaded.program
-    missions = select_missions(path, program, mission)
-    if len(missions) > 1:
-        raise StlcError([Diagnostic("STL104", f"{path} has {len(missions)} missions: say "
-                                    "which to fly", Span(path, 1, 1, 1, 2),
-                                    "pass --mission " + " | ".join(x.name for x in missions))])
-    m = missions[0]
+    m = one_mission(path, program, mission, "fly")
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, mission_span(path, m))
     with deadline.limited(deadline.mission_limit(m.options, time_limit, time_limit or 0.0),

@@ -188,6 +188,17 @@ def select_missions(path: str, program: model.Program, name: str | None) -> list
     return list(program.missions.values())
 
 
+def one_mission(path: str, program: model.Program, name: str | None, verb: str):
+    """The one mission a command that takes a single mission runs (``select_missions``;
+    STL104 when the file has several and none is named)."""
+    chosen = select_missions(path, program, name)
+    if len(chosen) > 1:
+        raise StlcError([Diagnostic("STL104", f"{path} has {len(chosen)} missions: say "
+                                    f"which to {verb}", Span(path, 1, 1, 1, 2),
+                                    "pass --mission " + " | ".join(m.name for m in chosen))])
+    return chosen[0]
+
+
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
                  quiet: bool = False, risk: bool = True, time_limit: float | None = None,
                  started: float | None = None, deny_warnings: bool = False,

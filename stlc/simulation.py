@@ -14,10 +14,9 @@ from dataclasses import replace
 import numpy as np
 
 from stlc import deadline
-from stlc.diagnostics import Diagnostic, Span, StlcError
+from stlc.diagnostics import Diagnostic, StlcError
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
-from stlc.pipeline import (load, mission_span, plan_in_time,
-                           select_missions)
+from stlc.pipeline import load, mission_span, one_mission, plan_in_time
 from stlc.semantics import model
 
 
@@ -118,12 +117,7 @@ def simulate_file(path: str, out: str | None = None, mission: str | None = None,
     t0 = time.perf_counter()
     loaded = load(path, sets)
     program = loaded.program
-    missions = select_missions(path, program, mission)
-    if len(missions) > 1:
-        raise StlcError([Diagnostic("STL104", f"{path} has {len(missions)} missions: say "
-                                    "which to simulate", Span(path, 1, 1, 1, 2),
-                                    "pass --mission " + " | ".join(x.name for x in missions))])
-    m = missions[0]
+    m = one_mission(path, program, mission, "simulate")
     events = flight_events(program, m, disturbances, failures, moves)
     outdir = out if out is not None else os.path.join("reports", m.name)
     preflight(outdir, mission_span(path, m))

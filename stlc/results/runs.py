@@ -20,14 +20,9 @@ from stlc.results.plan import Plan, needs_pandas
 
 
 def _one_mission(program, mission: str | None, verb: str):
-    from stlc.pipeline import select_missions
+    from stlc.pipeline import one_mission
 
-    chosen = select_missions(program.file, program, mission)
-    if len(chosen) > 1:
-        raise StlcError([Diagnostic("STL104", f"{program.file} has {len(chosen)} missions: "
-                                    f"say which to {verb}", Span(program.file, 1, 1, 1, 2),
-                                    "missions: " + ", ".join(m.name for m in chosen))])
-    return chosen[0]
+    return one_mission(program.file, program, mission, verb)
 
 
 # ---------------------------------------------------------------- simulate
