@@ -124,7 +124,12 @@ def plan(program: model.Program, mission: model.Mission, *, quiet: bool = True,
     are the instance's ``--set`` values (recorded on the problem); ``chain`` replaces the
     chosen backend chain (a sweep's warm start from its plan library).  A caller without a
     time limit (the API, a sweep's instance) plans under the default one (``stlc.deadline``):
-    no solve runs unbounded."""
+    no solve runs unbounded.  The first planning in a process pins one solver thread, as the
+    command line does (``settings.limit_solver_threads``): MUMPS's thread count changes
+    IPOPT's path, and a plan must be the same from the API, a sweep and the CLI."""
+    from stlc import settings
+
+    settings.limit_solver_threads()
     with deadline.serial(), deadline.bounded():  # one planning at a time per process
         return _plan(program, mission, quiet=quiet, step=step, horizon=horizon,
                      backend=backend, values=values, chain=chain)

@@ -15,9 +15,11 @@ constants of the modules that make them, or typed options of the problem and bac
   (``no_fork``); a caller that must not fork (a Dask worker's task) says so with
   ``override(no_fork=True)`` for its own work instead of changing the environment.
 
-``limit_solver_threads`` is the CLI entry point's: one OpenMP/BLAS thread unless the user
-set these already (IPOPT's MUMPS and BLAS start one thread per core; on small KKT systems
-the threads only contend).  Importing ``stlc`` changes nothing in the process.
+``limit_solver_threads``: one OpenMP/BLAS thread unless the user set these already (IPOPT's
+MUMPS and BLAS start one thread per core; on small KKT systems the threads only contend,
+and the thread count changes IPOPT's path).  The CLI's entry point and the first planning
+of a process (``pipeline.plan``: the API, a sweep's workers) set it, so a plan is the same
+from every entry point.  Importing ``stlc`` changes nothing in the process.
 """
 
 from __future__ import annotations
