@@ -184,7 +184,8 @@ def _record(m, sol, b, setup, seed: int, pushes, reference: dict) -> dict:
         "mission": m.name,
         "plan": {"robustness": json_number(sol.robustness_exact), "status": str(sol.status),
                  "specs": {k: json_number(s.robustness) for k, s in sol.specs.items()}},
-        "flown": {"robustness": json_number(rho), "satisfied": verdict.judge(rho, float(m.threshold)),
+        "flown": {"robustness": json_number(rho),
+                  "satisfied": verdict.judge(rho, float(m.threshold)),
                   "specs": {k: json_number(float(v[0])) for k, v in b.robustness.items()
                             if k != m.name}},
         "tracking": {"max_error_m": float(b.err_max[0]), "rms_error_m": float(b.err_rms[0]),
