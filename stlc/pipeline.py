@@ -317,4 +317,6 @@ def risk_file(path: str, trajectory: str, mission: str | None = None,
     if trace.n > 1 and abs(trace.dt - m.step) > 1e-9 * m.step:
         print(f"note: the trajectory's step is {trace.dt:g} s, the mission's {m.step:g} s; "
               "windows were taken at the trajectory's step", file=sys.stderr)
-    return 0
+    from stlc.output.compile import levels_failed
+
+    return EXIT_UNSAT if levels_failed(risk_json) else EXIT_OK  # a risk level not met: 3

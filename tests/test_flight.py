@@ -320,6 +320,13 @@ def test_compile_judges_the_risk_levels_per_case(tmp_path):
     rho = np.sort(samples["wide/exact/requirement"])
     assert got[1]["value"] == rho[len(rho) - int(np.ceil(0.9 * len(rho)))]
     assert [g["holds"] for g in got] == [True, False]
+    # `stlc risk` on the written plan judges the same levels, and exits 3 alike
+    r = stlc("risk", str(f), "--trajectory", str(tmp_path / "out" / "trajectory.csv"),
+             "-o", str(tmp_path / "again"), cwd=tmp_path)
+    assert r.returncode == 3, r.stderr
+    assert "risk level `var(0.9) >= 5 m` (line" in r.stderr and "case `wide`" in r.stderr
+    again = json.loads((tmp_path / "again" / "risk.json").read_text())["levels"]["wide"]
+    assert [g["holds"] for g in again] == [True, False]
 
 
 PUSHED = """

@@ -107,7 +107,12 @@ def summary(sol: Solution, outdir: str) -> None:
 def risk_levels_failed(sol: Solution) -> bool:
     """Print each risk level of the mission that a risk case does not meet (``risk.json``'s
     ``levels``); True if there is one (``stlc compile`` then exits 3)."""
-    failed = [(case, lv) for case, lvs in ((sol.risk or {}).get("levels") or {}).items()
+    return levels_failed(sol.risk)
+
+
+def levels_failed(risk: dict | None) -> bool:
+    """``risk_levels_failed`` on the contents of a ``risk.json`` (``stlc risk`` alike)."""
+    failed = [(case, lv) for case, lvs in ((risk or {}).get("levels") or {}).items()
               for lv in lvs if not lv["holds"]]
     for case, lv in failed:
         print(f"  risk level `{lv['level']}` (line {lv['line']}) does not hold in case "
