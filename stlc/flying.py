@@ -161,6 +161,9 @@ def _replan_record(sim) -> dict:
     trig = sim.triggered
     return {"replans": len(trig), "accepted": sum(1 for e in trig if e.accepted),
             "kept": list(sim.kept),
+            "recoveries": [{"time": e.time, "vehicle": e.vehicle, "accepted": e.accepted,
+                            **e.detail["recovery"]}
+                           for e in trig if "recovery" in (e.detail or {})],
             "open_loop_robustness": {k: json_number(v)
                                      for k, v in sim.executed_robustness.items()}}
 

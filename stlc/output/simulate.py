@@ -47,8 +47,17 @@ def simulation_summary(sim: SimulationResult, outdir: str, quiet: bool = False) 
             print(f"  {e.time:7.2f}  {e.vehicle:<8} {e.deviation:8.3f}  "
                   f"{_f(e.solve_s, '9.3f')}  {e.status or '—':<14} "
                   f"{'yes' if e.accepted else 'no':<8} {kept}", file=out)
-    verdict = ", ".join(f"{k} {v:+.4f}" for k, v in sim.executed_robustness.items())
-    print(f"{sim.mission}: executed trajectory: {verdict} → {outdir}/replan.json",
+    for e in sim.triggered:
+        rec = (e.detail or {}).get("recovery")
+        if rec and not quiet:
+            broken = ", ".join(f"`{k}` ({v:+.3f})" for k, v in rec["broken_at_start"].items())
+            back = ("back to κ at " + format(rec["back_at"], "g") + " s"
+                    if e.accepted and rec["back_at"] is not None else "not flown")
+            print(f"  recovery: {e.vehicle} started the replan at {e.segment[0]:g} s inside "
+                  f"the violation set of {broken}; the segment leaves it by the shortest way "
+                  f"back: {back}", file=out)
+    rhos = ", ".join(f"{k} {v:+.4f}" for k, v in sim.executed_robustness.items())
+    print(f"{sim.mission}: executed trajectory: {rhos} → {outdir}/replan.json",
           file=out if ok else sys.stderr)
     if not ok:
         bad = [e for e in sim.triggered if not e.accepted]

@@ -66,6 +66,9 @@ class PlanningProblem:
     #: ``program`` (its params and vehicle starts are the NLP's parameters: nlp_cache.bind)
     values: Mapping[str, float] = field(default_factory=frozen)
     seed: Solution | None = None
+    #: a replanning segment whose start already breaks a kept spec: it first leaves the
+    #: spec's violation set by the shortest way back to κ, then keeps it
+    recover: bool = False
 
     @property
     def params(self) -> dict[str, float]:

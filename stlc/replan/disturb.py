@@ -28,13 +28,21 @@ open is decided here):
   **full state** at the first waypoint of the T_g grid (samples at or after j·T_g) that lies
   at least T_g after s, so the segment lasts between T_g and 2T_g (less only at the end of
   the horizon, where the goal is the last sample; an event with no sample left after s is
-  reported as not run).  The segment backend (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
+  reported as not run).  A deviation (position and velocity) too large to null in T_g at the
+  acceleration bound of the vehicle model (``min_time``, per axis) moves the goal to the
+  first waypoint at least that long after s (``detail.lengthened``), and the segment NLP
+  is rebuilt for the longer segment.  The segment backend (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
   ``cfg.specs`` on the segment's samples after s with margin κ, obeys the dynamics and
   bounds and minimises input effort and distance from the reference.
 * **Acceptance.**  A replan is flown iff IPOPT converged (optimal or acceptable), its wall
   time is within t_c (IPOPT also stops at ``max_wall_time`` = t_c), its inputs flown from the
   predicted start end within ``REJOIN_TOL`` of the goal, and every kept spec's exact
-  robustness on the segment is ≥ κ.  Otherwise the event is reported (status, time,
+  robustness on the segment is ≥ κ — or, for a **recovery** (a predicted start that
+  already breaks a kept spec, e.g. pushed into a clearance band: no segment can keep it
+  there), every kept spec is ≥ κ from some sample of the segment to its end: the segment
+  backend takes the shortest way back (``recover``), and the event's ``detail.recovery``
+  says which specs were broken at the start and when the vehicle was back.  Otherwise the
+  event is reported (status, time,
   ``accepted = False``) and nothing changes: the vehicle keeps its inputs and the next event
   tries again.  On acceptance the reference becomes the prediction on [t_e, t_s] and the
   replanned states (flown from the predicted start) on [t_s, t_g]; its inputs the replan's on
@@ -112,6 +120,7 @@ class _Track:
     step: object  # the discrete dynamics (casadi Function)
     D: np.ndarray  # (n−1, nx) the reference's one-step defects x_{k+1} − F(x_k, u_k)
     backend: Backend | None = None
+    make: object = None  # steps → a segment backend for segments of up to that many steps
     segment: object = None  # the segment problem (one vehicle, kept specs, others fixed)
     nlp: object = None  # the backend's lowered problem, built at the first event
     pos: slice = field(default_factory=lambda: slice(0, 3))
@@ -211,7 +220,9 @@ def simulate_disturbances(problem, plan, disturbances: list[model.Disturbance],
     G = min(max(1, steps_ceil(cfg.waypoint_period, dt)), max(1, n - 1))
     M = min(2 * G - 1, max(1, n - 1))
     for tr in tracks.values():
-        tr.backend = segment(steps=M, budget=cfg.compute_budget, integrator=integrator)
+        tr.make = lambda steps: segment(steps=steps, budget=cfg.compute_budget,
+                                        integrator=integrator)
+        tr.backend = tr.make(M)
         tr.segment = _segment_problem(problem, plan, tr.vehicle, cfg)
     kicks: dict[int, list[model.Disturbance]] = {}
     for d in disturbances:
@@ -303,18 +314,30 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
         ev.status = str(SolverStatus.NOT_RUN)
         ev.detail = {"reason": "no sample left after t_e + t_c"}
         return
-    g = _waypoint_goal(s, G, cfg.waypoint_period, dt, n - 1)
-    L = g - s
-    ev.segment = (s * dt, g * dt)
     pred = [tr.X[k]]
     for j in range(k, s):
         pred.append(tr.fly(pred[-1], j))
     x_start = pred[-1]
+    need = _needed_steps(tr, x_start, s, dt)
+    g = _waypoint_goal(s, max(G, need), cfg.waypoint_period, dt, n - 1)
+    L = g - s
+    ev.segment = (s * dt, g * dt)
+    if need > G:  # a segment of the waypoint rule's length could not rejoin (module doc)
+        ev.detail["lengthened"] = {"steps": L, "needed_steps": need}
     first = tr.nlp is None
+    if L > tr.backend.steps:  # the NLP is built for the longest segment asked so far
+        tr.backend = tr.make(L)
+        first = True
     if first:
         tr.nlp, _ = tr.backend.lower(tr.segment)
+    kappa = problem.threshold
+    cand = tr.ref_X.copy()
+    cand[k:s + 1] = np.array(pred)
+    broken = {c: r for c, r in _kept(problem, tr, cand, s, s).items()
+              if not verdict.satisfied(r, kappa)}  # at the start: a recovery (module doc)
     event = replace(tr.segment, start_states=MappingProxyType({tr.vehicle.name: x_start}),
-                    window=(s * dt, g * dt), seed=_reference(problem, tr))
+                    window=(s * dt, g * dt), seed=_reference(problem, tr),
+                    recover=bool(broken))
     res = tr.backend.invert(tr.backend.solve(tr.nlp, event), tr.nlp, event)
     status = SolverStatus(res.solver["status"])
     vm = vehicles.model_of(tr.vehicle)
@@ -323,15 +346,17 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
     ev.within_budget = ev.solve_s <= cfg.compute_budget
     flown = _integrate(tr, x_start, U)
     rejoin = float(np.max(np.abs(flown[-1] - tr.ref_X[g])))
-    cand = tr.ref_X.copy()
-    cand[k:s + 1] = np.array(pred)
     cand[s:g + 1] = flown
     ev.kept = _kept(problem, tr, cand, s + 1, g)
-    kappa = problem.threshold
     kept_ok = all(verdict.satisfied(r, kappa) for r in ev.kept.values())
+    if broken:  # a recovery keeps the specs from the sample it is back on
+        back = _back(problem, tr, cand, s + 1, g)
+        kept_ok = back is not None
+        ev.detail["recovery"] = {"broken_at_start": broken,
+                                 "back_at": None if back is None else back * dt}
     ev.accepted = bool(status.converged and ev.within_budget and rejoin <= REJOIN_TOL
                        and kept_ok)
-    ev.detail = {"iterations": res.solver["iterations"], "cpu_s": res.solver["cpu_s"],
+    ev.detail = {**ev.detail, "iterations": res.solver["iterations"], "cpu_s": res.solver["cpu_s"],
                  "return_status": res.solver["return_status"], "start_sample": s,
                  "goal_sample": g, "steps": L, "rejoin_error": rejoin,
                  "objective": res.solver["objective"],
@@ -346,8 +371,8 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
         ev.detail["reason"] = reason(
             converged=status.converged, status=str(status), within_budget=ev.within_budget,
             solve_s=ev.solve_s, budget=cfg.compute_budget, rejoin=rejoin,
-            rejoin_tol=REJOIN_TOL, kept=ev.kept, kappa=kappa,
-            deviation=x_start[tr.pos] - tr.ref_X[g, tr.pos], segment_s=L * dt,
+            rejoin_tol=REJOIN_TOL, kept={} if broken and kept_ok else ev.kept,
+            kappa=kappa, deviation=x_start[tr.pos] - tr.ref_X[s, tr.pos], segment_s=L * dt,
             acc_max=vm.kinematic_limits(tr.vehicle)[1])
     if status.converged:
         ev.times = grid.times()[s:g + 1]
@@ -377,6 +402,46 @@ def _kept(problem, tr: _Track, X: np.ndarray, first: int, last: int) -> dict[str
             r = float(np.min(sig[a:b + 1]))
         out[cl.spec] = min(out.get(cl.spec, math.inf), r)
     return out
+
+
+def _needed_steps(tr: _Track, x_start: np.ndarray, s: int, dt: float) -> int:
+    """The fewest steps in which the vehicle can possibly null its position and velocity
+    deviation from the reference at sample s — per axis, the minimum time of a double
+    integrator under the sound acceleration bound of its model (``kinematic_envelope``;
+    ``min_time``) — plus one: a shorter segment cannot rejoin."""
+    vm = vehicles.model_of(tr.vehicle)
+    _, lo, hi = vm.kinematic_envelope(tr.vehicle)
+    a = np.maximum(np.abs(lo), np.abs(hi))
+    e = x_start[tr.pos] - tr.ref_X[s, tr.pos]
+    de = x_start[vm.vel_index()] - tr.ref_X[s, vm.vel_index()]
+    t = max(min_time(float(x), float(v), float(ai)) for x, v, ai in zip(e, de, a))
+    return steps_ceil(t, dt) + 1 if math.isfinite(t) else 1
+
+
+def min_time(x: float, v: float, a: float) -> float:
+    """The least time that brings a double integrator from (x, v) to rest at 0 with
+    |ẍ| ≤ a (bang-bang, one switch): with σ = x + v|v|/(2a), T = (v + 2√(a·x + v²/2))/a
+    for σ > 0, mirrored for σ < 0, |v|/a on the switching curve."""
+    if not a > 0:
+        return math.inf
+    sigma = x + v * abs(v) / (2 * a)
+    if sigma < 0:
+        x, v = -x, -v
+    elif sigma == 0:
+        return abs(v) / a
+    return (v + 2.0 * math.sqrt(max(a * x + v * v / 2.0, 0.0))) / a
+
+
+def _back(problem, tr: _Track, X: np.ndarray, first: int, last: int) -> int | None:
+    """The first sample r of first..last from which every kept clause is ≥ κ up to
+    ``last`` (a recovery is back on its kept specs there); None if none is."""
+    ok = np.ones(last - first + 1, bool)
+    for r in range(first, last + 1):
+        ok[r - first] = all(verdict.satisfied(x, problem.threshold)
+                            for x in _kept(problem, tr, X, r, r).values())
+    bad = np.flatnonzero(~ok)
+    r = first if bad.size == 0 else int(bad[-1]) + 1 + first
+    return r if r <= last else None
 
 
 def _executed(problem, tracks: dict[str, _Track], n: int) -> dict[str, np.ndarray]:

@@ -30,6 +30,14 @@ trajectory NLP that replanning needs and nothing more:
 * **objective** — mean squared input, scaled by the input bound, plus the mean squared
   distance of the position from the reference's (parameter), so the replan returns smoothly
   and stays near the (safe) reference path;
+* **recovery** — a start already inside a kept spec's violation set (a push into a
+  clearance band) leaves no segment that keeps it at every node.  Each node has a slack
+  ``σ_j ≥ 0`` added to its kept rows (``row + σ_j ≥ margin``), fixed at 0 for an ordinary
+  segment (IPOPT takes fixed variables out: the NLP is the one above) and free for a
+  ``recover`` problem, whose objective adds ``RECOVERY_WEIGHT · Σ σ_j``: an exact L1
+  penalty, so the segment keeps the specs wherever it can and otherwise takes the way back
+  with the least summed shortfall below κ — it leaves the violation set as fast as the
+  vehicle's bounds allow, then keeps the specs;
 * **parameters** — start state, goal state, reference positions, mask: nothing is rebuilt
   between events.  The primal guess is the reference with the start offset fading out
   linearly over the segment; IPOPT's multipliers are not warm-started.
@@ -64,6 +72,10 @@ KEPT_MARGIN = 1e-3
 #: weight of the squared position deviation (per m², mean over nodes) against the mean
 #: squared scaled input
 DEVIATION_WEIGHT = 1.0
+#: weight of a recovery's summed shortfall of the kept rows (scaled planner margins), far
+#: above the input and deviation terms (both O(1)): the L1 penalty is exact above the
+#: constraints' multipliers
+RECOVERY_WEIGHT = 1e3
 IPOPT_OPTIONS = {
     "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
     "ipopt.tol": 1e-6, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-4,
@@ -134,24 +146,26 @@ class SegmentNlp:
         # kept-spec rows, one block per clause, each M long (node-major inside a row)
         chans = {c: X[i, :] for i, c in enumerate(vm.state_channels(vehicle))}
         self.kept_rows: list[tuple[int, int]] = []  # (clause index, number of rows)
+        S = ca.SX.sym("S", 1, M)  # a recovery's shortfall per node (fixed at 0 otherwise)
         for ci, cl in enumerate(clauses):
             env = ExprEnv(chans, dict(params), KEPT_LAMBDA, "gkl")
             rows = _lower_body(planner_form(cl.body, kappa, params), env, True)
             for r in rows:
-                g.append(ca.vec(ca.repmat(r, 1, M) if r.numel() == 1 else r))
+                g.append(ca.vec((ca.repmat(r, 1, M) if r.numel() == 1 else r) + S))
             self.kept_rows.append((ci, len(rows)))
         Us = U / ca.DM(u_scale)
         dp = X[self.pos, :] - pref
-        obj = ca.sumsqr(Us) / M + DEVIATION_WEIGHT * ca.sumsqr(dp) / M
-        w = ca.vertcat(ca.vec(X), ca.vec(U))
+        obj = (ca.sumsqr(Us) / M + DEVIATION_WEIGHT * ca.sumsqr(dp) / M
+               + RECOVERY_WEIGHT * ca.sum2(S))
+        w = ca.vertcat(ca.vec(X), ca.vec(U), ca.vec(S))
         p = ca.vertcat(x0, xg, ca.vec(pref), ca.vec(mask))
         gg = ca.vertcat(*g)
         self.ng = gg.numel()
         opts = dict(IPOPT_OPTIONS)
         opts["ipopt.max_wall_time"] = float(budget)
         self.solver = ipopt.solver("replan", {"x": w, "p": p, "f": obj, "g": gg}, opts)
-        self.lbx = np.concatenate([np.tile(b.x_lo, M), np.tile(b.u_lo, M)])
-        self.ubx = np.concatenate([np.tile(b.x_hi, M), np.tile(b.u_hi, M)])
+        self.lbx = np.concatenate([np.tile(b.x_lo, M), np.tile(b.u_lo, M), np.zeros(M)])
+        self.ubx = np.concatenate([np.tile(b.x_hi, M), np.tile(b.u_hi, M), np.zeros(M)])
         self.n_vars = w.numel()
         self.build_s = time.perf_counter() - t0
 
@@ -170,9 +184,10 @@ class SegmentNlp:
         return np.concatenate(lb), np.concatenate(ub)
 
     def solve(self, s: int, L: int, x_start: np.ndarray, ref_X: np.ndarray,
-              ref_U: np.ndarray) -> SegmentResult:
+              ref_U: np.ndarray, recover: bool = False) -> SegmentResult:
         """Replan ``L`` steps (1 ≤ L ≤ M) from ``x_start`` to ``ref_X[L]``; ``ref_X`` (L + 1,
-        nx) and ``ref_U`` (L, nu) are the reference on the segment (cost and guess)."""
+        nx) and ``ref_U`` (L, nu) are the reference on the segment (cost and guess);
+        ``recover``: the kept rows may fall short, at a price (module docstring)."""
         M, nx, nu = self.M, self.nx, self.nu
         if not 1 <= L <= M:
             raise ValueError(f"segment of {L} steps, the NLP has {M}")
@@ -183,16 +198,19 @@ class SegmentNlp:
         Ug = np.vstack([ref_U, np.zeros((M - L, nu))])
         mask = (np.arange(M) < L).astype(float)
         p = np.concatenate([x_start, goal, Xr[:, self.pos].ravel(), mask])
-        w0 = np.concatenate([Xg.ravel(), Ug.ravel()])
+        w0 = np.concatenate([Xg.ravel(), Ug.ravel(), np.zeros(M)])
         lbg, ubg = self.bounds_g(s, L)
+        ubx = self.ubx.copy()
+        if recover:
+            ubx[-M:] = np.inf
         c0, t0 = time.process_time(), time.perf_counter()
-        sol = self.solver(x0=w0, p=p, lbx=self.lbx, ubx=self.ubx, lbg=lbg, ubg=ubg)
+        sol = self.solver(x0=w0, p=p, lbx=self.lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         st = self.solver.stats()
         ret = str(st.get("return_status", "unknown"))
         w = np.asarray(sol["x"]).ravel()
         X = w[:nx * M].reshape(M, nx)
-        U = w[nx * M:].reshape(M, nu)
+        U = w[nx * M:nx * M + nu * M].reshape(M, nu)
         return SegmentResult(
             status=STATUS_MAP.get(ret, SolverStatus.FAILED), return_status=ret,
             iterations=int(st.get("iter_count", 0)), solve_s=wall, cpu_s=cpu,
@@ -218,7 +236,8 @@ class SegmentBackend(Backend):
     * ``solve(lowered, event)``: ``event.start_states[v]`` the predicted start state,
       ``event.window`` (t_s, t_g) on the mission grid, ``event.seed`` the current
       reference (states and inputs by channel name): the goal is its state at t_g, its
-      path the cost and the guess;
+      path the cost and the guess; ``event.recover``: the start breaks a kept spec, so
+      the segment first takes the way back (module docstring);
     * ``invert``: a ``Solution`` on the window's samples (the NLP's states, its inputs held
       over each step, the last repeated) with the solver log.
     """
@@ -252,7 +271,8 @@ class SegmentBackend(Backend):
                          axis=1)
         ref_U = np.stack([np.asarray(ref[c], float)[s:g] for c in vm.input_channels(v)],
                          axis=1)
-        return nlp.solve(s, g - s, np.asarray(problem.start_states[v.name]), ref_X, ref_U), s, g
+        return nlp.solve(s, g - s, np.asarray(problem.start_states[v.name]), ref_X, ref_U,
+                         recover=problem.recover), s, g
 
     def invert(self, raw, nlp: SegmentNlp, problem) -> Solution:
         res, s, g = raw
