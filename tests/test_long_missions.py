@@ -6,6 +6,7 @@ independently of the pipeline's verification."""
 
 from __future__ import annotations
 
+import json
 import time
 
 import numpy as np
@@ -66,3 +67,9 @@ def test_45s_patrol_on_knots_is_satisfied(tmp_path):
     dt = problem.grid.dt
     assert np.allclose(P[:, 1:], P[:, :-1] + dt * V[:, :-1] + dt * dt / 2 * A, atol=1e-6)
     assert np.allclose(V[:, 1:], V[:, :-1] + dt * A, atol=1e-6)
+    # the solve record is written as strict JSON, the knots' seed a JSON object in it
+    from stlc.output.solution import solution_json
+
+    written = json.loads(solution_json(sol))
+    assert written["status"] == "satisfied"
+    assert isinstance(written["solver"]["seed"], dict)
