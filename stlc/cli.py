@@ -96,6 +96,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="stop planning after SECONDS and write the best verified plan")
     k.add_argument("--deny-warnings", action="store_true", help="warnings are errors "
                    "(exit 1 before planning; a plan's own warnings: exit 3)")
+    k.add_argument("--keep-on-interrupt", action="store_true", help="Ctrl-C stops planning "
+                   "and writes the best verified plan (exit 130); a second one stops at once")
     _set_option(k)
 
     s = sub.add_parser("simulate", help="fly a compiled plan through disturbances or a drone "
@@ -384,7 +386,7 @@ def cmd_compile(args) -> int:
     return compile_file(args.file, out=args.out, mission=args.mission, quiet=args.quiet,
                         risk=not args.no_risk, time_limit=args.time_limit, started=_STARTED,
                         deny_warnings=args.deny_warnings, backend=args.backend,
-                        sets=args.sets)
+                        sets=args.sets, keep=args.keep_on_interrupt)
 
 
 def cmd_simulate(args) -> int:

@@ -26,7 +26,10 @@ the limit was the default.  It is generous — 30× the slowest shipped mission 
 loaded two-core machine) — so it never binds a mission that plans normally; the
 developers' ``STLC_DEFAULT_TIME_LIMIT`` (seconds, read by ``stlc.settings``) overrides it.
 
-Ctrl-C is not a time limit: it still stops at once and writes nothing (``stlc.interrupt``).
+Ctrl-C is not a time limit: it still stops at once and writes nothing (``stlc.interrupt``)
+— unless the user asks for the best plan (``stlc compile --keep-on-interrupt``): then
+``cut()`` ends the planning limit at once, from the main thread, and the run ends as a
+stopped one.
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ class _State(threading.local):
     worker each keep their own (the watchdog hands its thread's limit to the writer)."""
 
     def __init__(self) -> None:
-        self.__dict__.update(end=None, limit=None, start=None, default=None)
+        self.__dict__.update(end=None, limit=None, start=None, default=None, cut=False)
 
     def __getitem__(self, key: str):
         return self.__dict__[key]
@@ -72,7 +75,8 @@ _state = _State()
 #: ``overrun`` writer (the fallback plan's outputs) and ends the process with its exit code
 GRACE_S = 0.4
 _watch: dict = {"timer": None, "thread": None, "armed": False, "fired": False,
-                "caught": False, "overrun": None, "entered": False, "state": {}}
+                "caught": False, "overrun": None, "entered": False, "state": {},
+                "live": None}
 _lock = threading.Lock()
 
 
@@ -89,11 +93,11 @@ def set_limit(seconds: float | None, start: float | None = None,
         return
     t0 = time.monotonic() if start is None else start
     _state.update(start=t0, limit=float(seconds), end=t0 + float(seconds),
-                  default=1.0 if default else None)
+                  default=1.0 if default else None, cut=False)
 
 
 def clear() -> None:
-    _state.update(end=None, limit=None, start=None, default=None)
+    _state.update(end=None, limit=None, start=None, default=None, cut=False)
 
 
 def default_limit() -> float:
@@ -123,7 +127,8 @@ def limited(seconds: float | None, start: float | None = None,
     if active():
         with _lock:
             _watch.update(thread=threading.get_ident(), armed=True, fired=False,
-                          caught=False, overrun=overrun, entered=False, state=_state.copy())
+                          caught=False, overrun=overrun, entered=False, state=_state.copy(),
+                          live=_state.__dict__)
             t = threading.Timer(max(0.0, solve_remaining()), _fire)
             t.daemon = True
             _watch["timer"] = t
@@ -136,7 +141,8 @@ def limited(seconds: float | None, start: float | None = None,
         with _lock:
             if _watch["timer"] is not None:
                 _watch["timer"].cancel()
-            _watch.update(timer=None, thread=None, armed=False, overrun=None, entered=False)
+            _watch.update(timer=None, thread=None, armed=False, overrun=None, entered=False,
+                          live=None)
         clear()
 
 
@@ -228,6 +234,33 @@ def stopper() -> Callable[[], None]:
             st["end"] = min(st["end"], time.monotonic())
 
     return stop
+
+
+def cut() -> bool:
+    """End the limit of the planning under way now, from any thread: its solvers stop as on
+    their time limit (IPOPT at its next iteration, a MILP when its own budget returns), and
+    a build that cannot see the limit is cut by the watchdog.  The output reserve is kept.
+    False when no planning is under way."""
+    with _lock:
+        live = _watch["live"]
+        if live is None or live.get("end") is None:
+            return False
+        keep = min(RESERVE_MAX_S, RESERVE_FRACTION * (live["limit"] or 0.0))
+        live["end"] = min(live["end"], time.monotonic() + keep)
+        live["cut"] = True
+        if _watch["armed"]:
+            if _watch["timer"] is not None:
+                _watch["timer"].cancel()
+            t = threading.Timer(0.0, _fire)
+            t.daemon = True
+            _watch["timer"] = t
+            t.start()
+    return True
+
+
+def was_cut() -> bool:
+    """Did ``cut`` end this thread's limit (a Ctrl-C the user asked to keep the plan on)?"""
+    return bool(_state["cut"])
 
 
 def disarm() -> None:

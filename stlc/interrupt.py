@@ -14,6 +14,13 @@ for it to end.  Then ``run`` raises ``KeyboardInterrupt`` in the main thread (th
 ``on_termination()`` gives SIGTERM (``timeout``, ``kill``, a cancelled CI job) and SIGHUP
 (a closed terminal) the same contract: they interrupt like Ctrl-C, and ``exit_code()``
 is then 128 + the signal's number (143, 129) instead of 130.
+
+``soften(hook)`` (``stlc compile --keep-on-interrupt``) changes what the *first* Ctrl-C
+does: ``hook()`` is called from the main thread (``deadline.cut``: the planning limit ends
+now, so the solvers stop as on a time limit and the best verified plan is written) and the
+command goes on to write its outputs; it then exits 130 (``softened``).  A hook that finds
+nothing to cut (no planning under way), a second Ctrl-C, SIGTERM and SIGHUP stop at once
+as above.
 """
 
 from __future__ import annotations
@@ -36,6 +43,7 @@ POLL_S = 0.05
 _requested = threading.Event()
 _lock = threading.Lock()
 _state = {"worker": None, "deferring": 0, "pending": False, "abandoned": False, "signal": 0}
+_soft: dict = {"hook": None, "used": False}
 
 
 def _terminate(signum: int, frame: object) -> None:
@@ -61,6 +69,25 @@ def abandoned() -> bool:
     process must end with ``os._exit``: finalising the interpreter would kill the worker
     inside C++ code, which aborts."""
     return bool(_state["abandoned"])
+
+
+def soften(hook: Callable[[], bool]) -> None:
+    """The first Ctrl-C of the running command calls ``hook()`` instead of stopping it
+    (module docstring); ``hook`` returns False when it has nothing to stop."""
+    _soft["hook"] = hook
+
+
+def softened() -> bool:
+    """Was the running command asked to stop by a softened Ctrl-C (it then exits 130)?"""
+    return bool(_soft["used"])
+
+
+def _soft_stop() -> bool:
+    hook = _soft["hook"]
+    if hook is None or _soft["used"] or _state["signal"]:
+        return False
+    _soft["used"] = True
+    return bool(hook())
 
 
 def requested() -> bool:
@@ -129,6 +156,7 @@ def run(fn: Callable[[], T]) -> T:
 
     _requested.clear()
     _state["abandoned"] = False
+    _soft.update(hook=None, used=False)
     old_stack = threading.stack_size()
     try:
         threading.stack_size(STACK_BYTES)
@@ -148,8 +176,14 @@ def run(fn: Callable[[], T]) -> T:
         try:
             # polled: the kernel may deliver SIGINT to any thread (CasADi's evaluation
             # threads too), and then a blocking wait here is never interrupted
-            while not done.wait(POLL_S):
-                pass
+            while True:
+                try:
+                    while not done.wait(POLL_S):
+                        pass
+                    break
+                except KeyboardInterrupt:
+                    if not _soft_stop():  # softened: the command stops planning, writes
+                        raise
         except KeyboardInterrupt:
             request()
             try:

@@ -21,7 +21,6 @@ from stlc.diagnostics import Diagnostic, Span, StlcError, emit_warnings
 from stlc.exitcodes import EXIT_OK, EXIT_UNSAT
 from stlc.frontend.syntax import parse_file
 from stlc.limits import source_text
-from stlc.planning.record import StopReason
 from stlc.semantics import ir, model
 from stlc.semantics.check import check
 
@@ -207,12 +206,18 @@ def one_mission(path: str, program: model.Program, name: str | None, verb: str):
 def compile_file(path: str, out: str | None = None, mission: str | None = None,
                  quiet: bool = False, risk: bool = True, time_limit: float | None = None,
                  started: float | None = None, deny_warnings: bool = False,
-                 backend: str | None = None, sets: list[str] | tuple[str, ...] = ()) -> int:
+                 backend: str | None = None, sets: list[str] | tuple[str, ...] = (),
+                 keep: bool = False) -> int:
     """``stlc compile``: every selected mission planned, verified, assessed, written.
     ``time_limit`` (s, from the start of the command; shared by the missions in turn)
     stops the search and writes the best verified plan (``stlc.deadline``); ``backend``
-    forces a chain (``stlc.backends.strategy``)."""
+    forces a chain (``stlc.backends.strategy``); ``keep``: a Ctrl-C while planning stops
+    the search as a time limit does, writes the best verified plan and exits 130."""
+    from stlc import interrupt
     from stlc.output import compile as outputs
+
+    if keep:
+        interrupt.soften(deadline.cut)
 
     t0 = time.perf_counter()
     start = time.monotonic() if started is None else started
@@ -251,8 +256,8 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
             problem, sol = plan_in_time(program, m, quiet=quiet, backend=backend,
                                         values=loaded.values)
             sol.timing.update(loaded.timing)
-            if risk and m.risk is not None and sol.solver.stopped_by == StopReason.TIME_LIMIT:
-                sol.notes.append("the risk cases were not assessed: the time limit ran out "
+            if risk and m.risk is not None and sol.solver.stopped_by is not None:
+                sol.notes.append("the risk cases were not assessed: planning was stopped "
                                  "(`stlc risk` assesses them on trajectory.csv)")
             elif risk and m.risk is not None:
                 assess_risk(program, m, sol, problem)
@@ -271,6 +276,10 @@ def compile_file(path: str, out: str | None = None, mission: str | None = None,
                           else found, False, {path: program.source})
             if deny_warnings:
                 code = EXIT_UNSAT
+        if interrupt.softened():
+            print(f"stlc: interrupted: the best verified plan found is in {outdir}",
+                  file=sys.stderr)
+            return interrupt.exit_code()  # the missions after it are not planned
     if not quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return code

@@ -189,3 +189,46 @@ def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path)
     assert elapsed < 2.0
     assert "interrupted" in rest and "energy" not in rest  # no later stage ran
     assert {q.name: q.read_text() for q in out.iterdir()} == old
+
+
+def test_ctrl_c_with_keep_on_interrupt_writes_the_best_verified_plan(tmp_path):
+    """``--keep-on-interrupt``: the first Ctrl-C stops the search as a time limit does; the
+    best verified plan is written (judged by the exact monitor, saying it was interrupted)
+    and the command exits 130.  The same slow solve as above."""
+    out = tmp_path / "out"
+    long = tmp_path / "hexa_long.stl"
+    long.write_text((ROOT / "tests" / "missions" / "hexa_climb.stl").read_text()
+                    .replace("horizon = 3 s", "horizon = 8 s")
+                    .replace("step = 0.1 s", "step = 0.05 s")
+                    .replace("always[0, 3]", "always[0, 8]")
+                    .replace("eventually[0, 2] always[0, 1]", "eventually[0, 7] always[0, 1]")
+                    .replace("minimize 0.5 * energy - robustness", "maximize robustness"))
+    slow = {"STLC_IPOPT": '{"ipopt.hessian_approximation": "limited-memory", '
+                          '"ipopt.tol": 1e-12, "ipopt.acceptable_iter": 0}'}
+    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out),
+                          "--no-risk", "--keep-on-interrupt"],
+                         env={**env(), **slow}, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    seen = []
+    for line in p.stderr:
+        seen.append(line)
+        if "] iter" in line:
+            break
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    rest = p.stderr.read()
+    p.wait(timeout=60)
+    assert p.returncode == 130, "".join(seen) + rest
+    assert time.monotonic() - t0 < 15.0
+    assert "the best verified plan found is in" in rest and "energy:" not in rest
+    sol = json.loads((out / "solution.json").read_text())
+    assert any(n.startswith("stopped by Ctrl-C") for n in sol["notes"])
+    assert sol["solver"]["stopped_by"] == "interrupted" and sol["solver"]["converged"] is False
+    assert not any("time limit" in n for n in sol["notes"])
+    # what is written is what the exact monitor says of the written trajectory
+    r = subprocess.run([sys.executable, "-m", "stlc", "monitor", str(long), "--trace",
+                        str(out / "trajectory.csv"), "--mission", "climb", "--json"],
+                       env=env(), capture_output=True, text=True, timeout=60)
+    specs = json.loads(r.stdout)["specs"]
+    assert specs["climb"]["robustness"] == pytest.approx(sol["robustness"]["exact"],
+                                                               abs=1e-9)

@@ -70,12 +70,17 @@ def time_limited(sol: Solution) -> None:
                                      any(s.get("status") == "max_time" for s in stages)):
         return
     limit = deadline.limit()
-    sol.solver.update(stopped_by="time_limit", time_limit_s=limit, converged=False)
-    sol.solver["time_limit_default"] = deadline.is_default()
-    why = (" (the default limit: no `--time-limit` or `time_limit` was given; raise it with "
-           "either)" if deadline.is_default() else "")
-    sol.notes.append(f"stopped by the time limit of {limit:g} s{why}: this is the best "
-                     "verified plan found so far (the solver did not converge)")
+    if deadline.was_cut():
+        sol.solver.update(stopped_by="interrupted", converged=False)
+        sol.notes.append("stopped by Ctrl-C (--keep-on-interrupt): this is the best verified "
+                         "plan found until then (the solver did not converge)")
+    else:
+        sol.solver.update(stopped_by="time_limit", time_limit_s=limit, converged=False)
+        sol.solver["time_limit_default"] = deadline.is_default()
+        why = (" (the default limit: no `--time-limit` or `time_limit` was given; raise it "
+               "with either)" if deadline.is_default() else "")
+        sol.notes.append(f"stopped by the time limit of {limit:g} s{why}: this is the best "
+                         "verified plan found so far (the solver did not converge)")
     if sol.status != Verdict.SATISFIED:
         sol.status = Verdict.STOPPED
 

@@ -30,6 +30,7 @@ class StopReason(enum.StrEnum):
     """Why the search stopped before its own end."""
 
     TIME_LIMIT = "time_limit"  # the run's time limit (``stlc.deadline``)
+    INTERRUPTED = "interrupted"  # Ctrl-C with ``--keep-on-interrupt`` (``deadline.cut``)
 
 
 @dataclass
