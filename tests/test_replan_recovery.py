@@ -24,7 +24,7 @@ from stlc import cli, pipeline, vehicles
 from stlc.backends.replan.segment import SegmentBackend
 from stlc.planning.problem import from_mission
 from stlc.planning.solution import Solution
-from stlc.replan import disturb
+from stlc.replan import disturb, explain
 from stlc.semantics import model
 
 HOVER = """
@@ -119,7 +119,7 @@ def test_simulate_says_so(pushed, capsys, tmp_path):
     (-1.0, 0.0, 2.0, 2.0 * math.sqrt(0.5)),
 ])
 def test_min_time_of_the_double_integrator(x, v, a, want):
-    assert disturb.min_time(x, v, a) == pytest.approx(want)
+    assert explain.min_time(x, v, a) == pytest.approx(want)
 
 
 def test_min_time_against_a_brute_force_bang_bang_search():
@@ -140,7 +140,7 @@ def test_min_time_against_a_brute_force_bang_bang_search():
                 f = xe[i] / (xe[i] - xe[i + 1])
                 s1 = t1[i] + f * (t1[i + 1] - t1[i])
                 best = min(best, s1 + (v + u * s1) / u)
-        assert best == pytest.approx(disturb.min_time(x, v, a), abs=1e-3)
+        assert best == pytest.approx(explain.min_time(x, v, a), abs=1e-3)
 
 
 def test_fly_recovers_on_the_replanned_reference(pushed, tmp_path):

@@ -28,10 +28,10 @@ open is decided here):
   **full state** at the first waypoint of the T_g grid (samples at or after j·T_g) that lies
   at least T_g after s, so the segment lasts between T_g and 2T_g (less only at the end of
   the horizon, where the goal is the last sample; an event with no sample left after s is
-  reported as not run).  A deviation (position and velocity) too large to null in T_g at the
-  acceleration bound of the vehicle model (``min_time``, per axis) moves the goal to the
-  first waypoint at least that long after s (``detail.lengthened``), and the segment NLP
-  is rebuilt for the longer segment.  The segment backend (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
+  reported as not run).  A deviation (position and velocity) too large to null in T_g at
+  the acceleration bound of the vehicle model (``explain.min_time``, per axis) moves the
+  goal to the first waypoint at least that long after s (``detail.lengthened``), and the
+  segment NLP is rebuilt for the longer segment.  The segment backend (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
   ``cfg.specs`` on the segment's samples after s with margin κ, obeys the dynamics and
   bounds and minimises input effort and distance from the reference.
 * **Acceptance.**  A replan is flown iff IPOPT converged (optimal or acceptable), its wall
@@ -79,6 +79,7 @@ from stlc.backends.base import Backend, SolverStatus
 from stlc.planning.kept import Clause, KeptSpecError, kept_clauses
 from stlc.planning.solution import Solution, Verdict
 from stlc.planning.verify import recompute_derived
+from stlc.replan import explain
 from stlc.replan.result import ReplanEvent, SimulationResult
 from stlc.semantics import model
 from stlc.semantics.timegrid import is_aligned, steps_ceil
@@ -366,9 +367,7 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
     if first:
         ev.detail["build_s"] = res.timing["build_s"]
     if not ev.accepted:  # say why (stlc.replan.explain)
-        from stlc.replan.explain import reason
-
-        ev.detail["reason"] = reason(
+        ev.detail["reason"] = explain.reason(
             converged=status.converged, status=str(status), within_budget=ev.within_budget,
             solve_s=ev.solve_s, budget=cfg.compute_budget, rejoin=rejoin,
             rejoin_tol=REJOIN_TOL, kept={} if broken and kept_ok else ev.kept,
@@ -408,28 +407,14 @@ def _needed_steps(tr: _Track, x_start: np.ndarray, s: int, dt: float) -> int:
     """The fewest steps in which the vehicle can possibly null its position and velocity
     deviation from the reference at sample s — per axis, the minimum time of a double
     integrator under the sound acceleration bound of its model (``kinematic_envelope``;
-    ``min_time``) — plus one: a shorter segment cannot rejoin."""
+    ``explain.min_time``) — plus one: a shorter segment cannot rejoin."""
     vm = vehicles.model_of(tr.vehicle)
     _, lo, hi = vm.kinematic_envelope(tr.vehicle)
     a = np.maximum(np.abs(lo), np.abs(hi))
     e = x_start[tr.pos] - tr.ref_X[s, tr.pos]
     de = x_start[vm.vel_index()] - tr.ref_X[s, vm.vel_index()]
-    t = max(min_time(float(x), float(v), float(ai)) for x, v, ai in zip(e, de, a))
+    t = max(explain.min_time(float(x), float(v), float(ai)) for x, v, ai in zip(e, de, a))
     return steps_ceil(t, dt) + 1 if math.isfinite(t) else 1
-
-
-def min_time(x: float, v: float, a: float) -> float:
-    """The least time that brings a double integrator from (x, v) to rest at 0 with
-    |ẍ| ≤ a (bang-bang, one switch): with σ = x + v|v|/(2a), T = (v + 2√(a·x + v²/2))/a
-    for σ > 0, mirrored for σ < 0, |v|/a on the switching curve."""
-    if not a > 0:
-        return math.inf
-    sigma = x + v * abs(v) / (2 * a)
-    if sigma < 0:
-        x, v = -x, -v
-    elif sigma == 0:
-        return abs(v) / a
-    return (v + 2.0 * math.sqrt(max(a * x + v * v / 2.0, 0.0))) / a
 
 
 def _back(problem, tr: _Track, X: np.ndarray, first: int, last: int) -> int | None:

@@ -26,6 +26,20 @@ def shortest_segment(d: float, a: float) -> float:
     return 2.0 * math.sqrt(max(d, 0.0) / a) if a > 0 else math.inf
 
 
+def min_time(x: float, v: float, a: float) -> float:
+    """The least time that brings a double integrator from (x, v) to rest at 0 with
+    |ẍ| ≤ a (bang-bang, one switch): with σ = x + v|v|/(2a), T = (v + 2√(a·x + v²/2))/a
+    for σ > 0, mirrored for σ < 0, |v|/a on the switching curve."""
+    if not a > 0:
+        return math.inf
+    sigma = x + v * abs(v) / (2 * a)
+    if sigma < 0:
+        x, v = -x, -v
+    elif sigma == 0:
+        return abs(v) / a
+    return (v + 2.0 * math.sqrt(max(a * x + v * v / 2.0, 0.0))) / a
+
+
 def default_waypoint_period(threshold: float, acc_max: np.ndarray, step: float) -> float:
     """T_g from the vehicle's limits (module docstring)."""
     a = float(np.min(acc_max)) / 2.0
