@@ -31,7 +31,8 @@ open is decided here):
   reported as not run).  A deviation (position and velocity) too large to null in T_g at
   the acceleration bound of the vehicle model (``explain.min_time``, per axis) moves the
   goal to the first waypoint at least that long after s (``detail.lengthened``), and the
-  segment NLP is rebuilt for the longer segment.  The segment backend (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
+  segment NLP is rebuilt for the longer segment.  The segment backend
+  (``stlc.backends.replan.segment``, passed in as ``segment``) keeps the specs of
   ``cfg.specs`` on the segment's samples after s with margin κ, obeys the dynamics and
   bounds and minimises input effort and distance from the reference.
 * **Acceptance.**  A replan is flown iff IPOPT converged (optimal or acceptable), its wall
