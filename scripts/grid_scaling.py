@@ -1,4 +1,4 @@
-"""Grid scaling of a point-mass mission (issue 19): the same 60 s patrol
+"""Grid scaling of a point-mass mission: the same 60 s patrol
 (``tests/missions/patrol_60s.stl``: obstacles, an implication with a nested ``eventually``,
 an ``until``) compiled at several steps; prints a table of the chain that ran, each stage's
 status, the verdict, the exact robustness and the wall time.

@@ -1,4 +1,4 @@
-"""Handover compile times over shipped, random and unseen variants (issue 19's goal: a
+"""Handover compile times over shipped, random and unseen variants (the goal: a
 median total time of 6 s or less).  Each variant is ``specs/handover.stl`` with ``--set``
 values (the operator's pose, the vehicle's start) and one of its three missions, compiled
 by ``stlc compile --no-risk`` in its own process, one at a time; the table gives the wall

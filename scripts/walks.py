@@ -1,4 +1,4 @@
-"""The walk of a command through the package's folders (issue 18): run ``stlc ARGS`` with a
+"""The walk of a command through the package's folders: run ``stlc ARGS`` with a
 profiler that sees every Python call from one ``stlc`` function into another, and report
 the folders entered and the *climbs*: distinct caller → callee function pairs whose
 callee's folder is above the caller's in the layer order of ``tests/test_layers.py``

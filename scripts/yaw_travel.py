@@ -1,4 +1,4 @@
-"""Yaw travel of a multirotor plan, and the least travel its own path asks for (issue 22).
+"""Yaw travel of a multirotor plan, and the least travel its own path asks for.
 
     python scripts/yaw_travel.py OUTDIR [OUTDIR ...] [--window 10 17] [--tol 30] [--vmin 0.1]
 
