@@ -103,3 +103,30 @@ def test_utm_survey_at_a_fine_step_finds_the_plan(tmp_path):
                         str(out / "trajectory.csv"), "--json"], capture_output=True,
                        text=True, env=env, timeout=120)
     assert json.loads(m.stdout)["specs"]["survey"]["robustness"] == sol["robustness"]["exact"]
+
+
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(start=st.tuples(*[st.decimals("0.05", "19.95", places=3)] * 3),
+       goal=st.tuples(*[st.decimals("0.05", "18.95", places=3)] * 3),
+       km=st.tuples(st.integers(1, 900), st.integers(1, 9000), st.just(0)))
+def test_a_mission_moved_by_whole_kilometres_is_planned_as_the_original(start, goal, km):
+    """Decimal coordinates moved to UTM (``450000.3`` is not exactly 450000 + 0.3 in binary)
+    give, to 10 nm, the very local problem of the original — bit for bit, so the same plan:
+    the same start and boxes, and every predicate the same number on a random trace."""
+    from stlc.analysis import monitor
+
+    shift = tuple(1000.0 * k for k in km)
+    s, g = start, goal  # decimals, so the original's text has 1.656, not 1.6560000000000001
+    here = stlc.loads(mission(s, g, None, 1, 0.1))
+    there = stlc.loads(mission(s, g, None, 1, 0.1, shift))
+    a = from_mission(here, here.missions["survey"])
+    b, fr = to_local(from_mission(there, there.missions["survey"]))
+    assert fr.origin == shift
+    assert b.program.vehicles["d"].start_pos == a.program.vehicles["d"].start_pos
+    assert [r.box for r in b.program.scenario.regions] == \
+        [r.box for r in a.program.scenario.regions]
+    rng = np.random.default_rng(int(sum(km)))
+    trace = {f"d.pos.{ax}": rng.uniform(-1, 21, 7) for ax in "xyz"}
+    for p, q in zip(ir.predicates(a.requirement), ir.predicates(b.requirement)):
+        assert np.array_equal(monitor.robustness_signal(p, 1.0, trace, a.params),
+                              monitor.robustness_signal(q, 1.0, trace, b.params))

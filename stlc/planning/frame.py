@@ -17,6 +17,14 @@ that cannot be folded (inside a product or a function) is kept as ``x' + o`` —
 only not rescaled.  ``to_world`` maps a ``Solution``'s position channels back; the
 verification pass then judges the plan in the mission's own coordinates.
 
+Local coordinates are rounded to ``DIGITS`` decimals (10 nm): a decimal coordinate given
+in UTM (``450000.3``) is not exactly ``450000 + 0.3`` in binary, and the 1e-11 m between
+the two is enough to send a nonconvex NLP to another local optimum; rounded, the local
+problem of a mission moved by whole kilometres is bit for bit the original's (for
+coordinates given to 10 nm or coarser: a double near 1e7 m resolves 2e-9 m), so it gets
+the original's plan.  10 nm is far below every tolerance, and the plan is verified in the
+mission's own coordinates all the same.
+
 Only translations: lengths keep their unit (a mission whose *extent* is huge is a
 different problem, which scaling would not make easier for the dynamics).
 """
@@ -32,6 +40,8 @@ from stlc.semantics import ir, model
 
 #: the reference point is the first vehicle's start rounded to a multiple of this (m)
 GRID = 1000.0
+#: local coordinates are rounded to this many decimals of a metre (10 nm)
+DIGITS = 8
 AXES = "xyz"
 
 
@@ -95,10 +105,10 @@ def _shift_expr(e: ir.Expr, fr: Frame, memo: dict) -> tuple[ir.Expr, float]:
             r1, b = _shift_expr(right, fr, memo)
             c = a + b if op == "+" else a - b
             if c != 0.0 and isinstance(r1, ir.Const):
-                out = (ir.Bin(op, l1, ir.Const(r1.value + c if op == "+" else r1.value - c)),
-                       0.0)
+                out = (ir.Bin(op, l1, ir.Const(_nm(r1.value + c if op == "+" else
+                                                   r1.value - c))), 0.0)
             elif c != 0.0 and isinstance(l1, ir.Const):
-                out = (ir.Bin(op, ir.Const(l1.value + c), r1), 0.0)
+                out = (ir.Bin(op, ir.Const(_nm(l1.value + c)), r1), 0.0)
             else:
                 out = (ir.Bin(op, l1, r1), c)
         case ir.Bin(op, left, right):
@@ -109,6 +119,16 @@ def _shift_expr(e: ir.Expr, fr: Frame, memo: dict) -> tuple[ir.Expr, float]:
             raise TypeError(f"not an expression node: {e!r}")
     memo[key] = (out, e)  # keep ``e`` alive: its id stays unique while memo lives
     return out
+
+
+def _nm(x: float) -> float:
+    """``x`` rounded to ``DIGITS`` decimals (module docstring)."""
+    return round(float(x), DIGITS)
+
+
+def _less(xs, o) -> tuple:
+    """A point (or box corner) in local coordinates: ``xs − o``, to 10 nm."""
+    return tuple(_nm(x - d) if d else x for x, d in zip(xs, o))
 
 
 def _whole(e: ir.Expr, fr: Frame, memo: dict) -> ir.Expr:
@@ -127,7 +147,8 @@ def shift_formula(f: ir.Formula, fr: Frame, memo: dict | None = None) -> ir.Form
         if isinstance(g, ir.Pred):
             b = g.bound
             if b is not None:
-                b = replace(b, value=b.value - fr.offset(b.signal),
+                d = fr.offset(b.signal)
+                b = replace(b, value=_nm(b.value - d) if d else b.value,
                             expr=_whole(b.expr, fr, memo))
             out = replace(g, expr=_whole(g.expr, fr, memo), bound=b)
         else:
@@ -144,34 +165,37 @@ def shift_formula(f: ir.Formula, fr: Frame, memo: dict | None = None) -> ir.Form
 def _box(b: model.Box, o) -> model.Box:
     if b.frame is not None:  # in a human's frame: moves with the human's (shifted) pose
         return b
-    return replace(b, lo=tuple(x - d for x, d in zip(b.lo, o)),
-                   hi=tuple(x - d for x, d in zip(b.hi, o)))
+    return replace(b, lo=_less(b.lo, o), hi=_less(b.hi, o))
 
 
 def _program(p: model.Program, fr: Frame) -> model.Program:
     o = fr.origin
-    vehicles = {n: (replace(v, start_pos=tuple(x - d for x, d in zip(v.start_pos, o)))
+    vehicles = {n: (replace(v, start_pos=_less(v.start_pos, o))
                     if hasattr(v, "start_pos") else v) for n, v in p.vehicles.items()}
     sc = p.scenario
     scenario = replace(sc, regions=tuple(replace(r, box=_box(r.box, o)) for r in sc.regions),
-                       humans=tuple(replace(h, pos=tuple(x - d for x, d in zip(h.pos, o)))
-                                    for h in sc.humans))
-    params = {k: v - fr.offset(k) for k, v in p.params.items()}
+                       humans=tuple(replace(h, pos=_less(h.pos, o)) for h in sc.humans))
+    params = {k: _nm(v - fr.offset(k)) if fr.offset(k) else v for k, v in p.params.items()}
     memo: dict = {}
     specs = {k: shift_formula(f, fr, memo) for k, f in p.specs.items()}
     return replace(p, vehicles=vehicles, scenario=scenario, params=params, specs=specs)
 
 
 def _channels(ch, fr: Frame, sign: float) -> dict:
-    return {k: (np.asarray(v, dtype=float) + sign * fr.offset(k) if fr.offset(k) else v)
-            for k, v in ch.items()}
+    """Position channels moved by ``sign`` × the origin: into the frame (−1, to 10 nm) or
+    back to the world (+1, not rounded)."""
+    def move(k, v):
+        x = np.asarray(v, dtype=float) + sign * fr.offset(k)
+        return np.round(x, DIGITS) if sign < 0 else x
+
+    return {k: (move(k, v) if fr.offset(k) else v) for k, v in ch.items()}
 
 
 def _states(problem, fr: Frame) -> dict:
     out = {}
     for name, x in problem.start_states.items():
         x = np.array(x, dtype=float)
-        x[:3] -= fr.origin  # every vehicle model's state starts with its position
+        x[:3] = _less(x[:3], fr.origin)  # every vehicle model's state starts with it
         out[name] = x
     return out
 
