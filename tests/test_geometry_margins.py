@@ -204,3 +204,26 @@ def test_a_plan_keeps_each_units_margin(tmp_path):
                                P[:, 2] - 0.5, 1.5 - P[:, 2]])
     held = [depth[k:k + 3].min() for k in range(len(depth) - 2)]  # 1 s = 3 samples
     assert max(held) >= 0.3 - 1e-6
+
+
+def test_solution_json_names_kappa_and_the_margins(tmp_path):
+    """``solution.json`` says what the verdict was judged against: κ, and the margin per
+    unit as written (SI values)."""
+    import json
+
+    from stlc.cli import main
+
+    f = tmp_path / "m.stl"
+    f.write_text(SRC.format(kappa="margin = [0.2 m, 0.05 m/s]"))
+    assert main(["compile", str(f), "-o", str(tmp_path / "a"), "-q", "--no-risk"]) == 0
+    sol = json.loads((tmp_path / "a" / "solution.json").read_text())
+    assert sol["threshold"] == 0.0 and sol["margins"] == {"m": 0.2, "m/s": 0.05}
+    import jsonschema
+
+    from stlc.schemas import schema
+
+    jsonschema.validate(sol, schema("solution"))
+    f.write_text(SRC.format(kappa="threshold = 0.1"))
+    assert main(["compile", str(f), "-o", str(tmp_path / "b"), "-q", "--no-risk"]) == 0
+    sol = json.loads((tmp_path / "b" / "solution.json").read_text())
+    assert sol["threshold"] == 0.1 and "margins" not in sol

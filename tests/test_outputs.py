@@ -225,6 +225,12 @@ def test_ctrl_c_with_keep_on_interrupt_writes_the_best_verified_plan(tmp_path):
     assert any(n.startswith("stopped by Ctrl-C") for n in sol["notes"])
     assert sol["solver"]["stopped_by"] == "interrupted" and sol["solver"]["converged"] is False
     assert not any("time limit" in n for n in sol["notes"])
+    import jsonschema
+
+    from stlc.schemas import schema
+
+    jsonschema.validate(sol, schema("solution"))
+    jsonschema.validate({**sol, "status": "stopped"}, schema("solution"))  # a stopped run
     # what is written is what the exact monitor says of the written trajectory
     r = subprocess.run([sys.executable, "-m", "stlc", "monitor", str(long), "--trace",
                         str(out / "trajectory.csv"), "--mission", "climb", "--json"],

@@ -42,7 +42,7 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
         if extra is not None:
             extra(tmp)
         with open(os.path.join(tmp, "solution.json"), "w") as fh:
-            fh.write(solution_json(sol))
+            fh.write(solution_json(sol, mission))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
         if sol.times.size:  # PX4 / MRS setpoints and a ROS 2 bag (``stlc.flight.export``)

@@ -58,9 +58,17 @@ def solution_json_dict(sol: Solution) -> dict:
     }
 
 
-def solution_json(sol: Solution) -> str:
-    """``solution.json``."""
-    return strict_dumps(solution_json_dict(sol), indent=2)
+def solution_json(sol: Solution, mission=None) -> str:
+    """``solution.json``; with the checked ``mission``, also the κ its verdict is judged
+    against (``threshold``) and its margins per unit (``margins``: unit → SI value, when
+    the mission gives ``margin = [...]``)."""
+    out = solution_json_dict(sol)
+    if mission is not None:
+        out["threshold"] = json_number(mission.threshold)
+        margins = (mission.options or {}).get("margins")
+        if margins:
+            out["margins"] = {str(u): json_number(v) for u, v in margins.items()}
+    return strict_dumps(out, indent=2)
 
 
 def trajectory_csv(sol: Solution) -> str:
