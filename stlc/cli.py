@@ -413,7 +413,7 @@ def cmd_risk(args) -> int:
         return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
                          sets=args.sets)
     from stlc.analysis.risk_parallel import distributed
-    from stlc.sweep.run import dask_session
+    from stlc.sweeping.run import dask_session
 
     with dask_session(args.workers, args.scheduler, args.file) as client:
         return risk_file(args.file, args.trajectory, mission=args.mission, out=args.out,
@@ -421,7 +421,7 @@ def cmd_risk(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from stlc.sweep.run import sweep
+    from stlc.sweeping.run import sweep
 
     return sweep(args.file, args.mission, args.vary, args.sets, args.out, args.workers,
                  args.scheduler, args.random, args.seed, args.quiet,

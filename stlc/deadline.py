@@ -226,7 +226,7 @@ def caught() -> None:
 def stopper() -> Callable[[], None]:
     """A function that, called from any thread, ends the *calling* thread's active limit
     now: its solves stop as on their time limit (best verified iterate, not converged).
-    A sweep pre-empts a cold instance with it (``stlc.sweep.task``)."""
+    A sweep pre-empts a cold instance with it (``stlc.sweeping.task``)."""
     st = _state.__dict__  # this thread's state (``_State`` is thread-local)
 
     def stop() -> None:

@@ -336,7 +336,7 @@ def command(args) -> int:
 
     if not args.runs or (args.workers is None and args.scheduler is None):
         return run()
-    from stlc.sweep.run import dask_session
+    from stlc.sweeping.run import dask_session
 
     with dask_session(args.workers, args.scheduler, args.file) as client:
         return run(client)

@@ -1,7 +1,7 @@
 """A sweep task for ``tests/test_sweep_overhead.py``: an instance past the middle of the
 ``op.pos.x`` axis, sent cold (pre-emptible), does not solve but waits — as a slow cold
 solve would — until the client pre-empts it (or 60 s pass); every other task is the real
-``stlc.sweep.task.run_instance``.  Importable by the Dask workers (the tests' folder is on
+``stlc.sweeping.task.run_instance``.  Importable by the Dask workers (the tests' folder is on
 their path)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import threading
 import time
 
 from stlc import deadline
-from stlc.sweep import task
+from stlc.sweeping import task
 
 
 def run_instance(source, path, mission, items, values, index, **kw):

@@ -20,8 +20,8 @@ from stlc.diagnostics import Diagnostic, Span, count_text, emit_warnings
 from stlc.output.report import build_view, render_report
 from stlc.output.report.flags import CLOSE_PASS_M, HIGH_RISK, close_passes, high_risk
 from stlc.planning.solution import Solution
-from stlc.sweep.axes import Axis, parse_axis
-from stlc.sweep.report import render
+from stlc.sweeping.axes import Axis, parse_axis
+from stlc.sweeping.report import render
 
 
 def check(tmp_path, text: str, capsys) -> str:

@@ -156,7 +156,7 @@ def test_dryden_variance_and_correlation():
 def test_runs_on_dask_equal_the_local_runs(climb_plan, monkeypatch):
     """Two chunks (cut on the client) on a local Dask cluster of two workers (the sweep's
     client setup) give the numbers of the local loop."""
-    from stlc.sweep.run import close_client, dask_client
+    from stlc.sweeping.run import close_client, dask_client
 
     program, m, tr = climb_plan
     monkeypatch.setattr(engine, "CHUNK", 4)

@@ -22,7 +22,7 @@ The units, lowest first (``LAYERS``)::
     pipeline   orders the passes
     simulation ``stlc simulate``: the compile, then the flight loops of ``replan``
     tools      language tools: fmt, lsp, explain
-    sweep      ``stlc sweep`` on Dask (a client and its workers' tasks)
+    sweeping   ``stlc sweep`` on Dask (a client and its workers' tasks)
     flying     ``stlc fly``: the compile, then the closed loop of ``flight`` (on the sweep's
                Dask client); the flight options of the command line
     results    what the Python API hands out (``Plan``, ``Simulation``, sweep tables) and
@@ -61,7 +61,7 @@ LAYERS: list[set[str]] = [
     {"pipeline"},
     {"simulation"},
     {"tools"},
-    {"sweep"},
+    {"sweeping"},
     {"flying"},
     {"results"},
     {"api"},
@@ -231,7 +231,7 @@ WING_TOP = {"base", "registry", "strategy"}
 FAMILIES = {"nlp", "milp", "team", "knots", "replan"}
 FAMILY_RANK = {"base": 0, "nlp": 1, "milp": 2, "team": 2, "knots": 3, "replan": 3,
                "registry": 4, "strategy": 5}
-ORDERERS = ("stlc.pipeline", "stlc.simulation", "stlc.api", "stlc.sweep", "stlc.output")
+ORDERERS = ("stlc.pipeline", "stlc.simulation", "stlc.api", "stlc.sweeping", "stlc.output")
 ORDERERS_MAY_IMPORT = {"stlc.backends.strategy", "stlc.backends.registry",
                        "stlc.backends.base"}
 #: private names imported across modules outside the planners' wing, owned by the modules
@@ -243,8 +243,8 @@ KNOWN_PRIVATE = {
     "stlc.analysis.monitor_demand: stlc.analysis.monitor._param",
     "stlc.analysis.monitor_demand: stlc.analysis.monitor._until",
     "stlc.analysis.smooth_demand: stlc.analysis.monitor_demand._pad",
-    "stlc.sweep.report: stlc.output.report.render._plotly_js",
-    "stlc.sweep.run: stlc.output.directory._cleanup",
+    "stlc.sweeping.report: stlc.output.report.render._plotly_js",
+    "stlc.sweeping.run: stlc.output.directory._cleanup",
 }
 
 

@@ -93,7 +93,7 @@ def test_a_warm_start_that_misses_kappa_is_planned_from_the_instances_own_seed(m
     from stlc import pipeline
     from stlc.backends.nlp.library import LibrarySeed
     from stlc.planning.fallback import hover_solution
-    from stlc.sweep import task
+    from stlc.sweeping import task
 
     path = str(ROOT / "tests" / "missions" / "hexa_climb.stl")
     source = Path(path).read_text(encoding="utf-8")

@@ -13,7 +13,7 @@ import time
 import pytest
 from test_set import SOURCE
 
-from stlc.sweep.handshake import probe
+from stlc.sweeping.handshake import probe
 
 
 def stlc(*args, **kw):

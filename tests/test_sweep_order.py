@@ -1,4 +1,4 @@
-"""``stlc.sweep.order``: the order of a sweep's instances and the plans shipped as seeds,
+"""``stlc.sweeping.order``: the order of a sweep's instances and the plans shipped as seeds,
 checked against brute force on small grids (no solver)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from stlc.sweep.order import MAX_WEIGHT, Order, scaled, spread
+from stlc.sweeping.order import MAX_WEIGHT, Order, scaled, spread
 
 
 def grid(na: int, nb: int) -> list[dict[str, float]]:

@@ -14,8 +14,8 @@ from test_set import SOURCE
 from stlc import deadline
 from stlc.frontend.syntax import parse
 from stlc.semantics import overrides
-from stlc.sweep.order import Order
-from stlc.sweep.task import preemptible
+from stlc.sweeping.order import Order
+from stlc.sweeping.task import preemptible
 
 ITEMS = [
     [("op.att.z", "30 deg"), ("op.pos.x", "1.2 m")],
@@ -91,9 +91,9 @@ def test_first_plan_preempts_a_slow_cold_instance(tmp_path, monkeypatch):
 
     import sweep_stub
 
-    from stlc.sweep import run
+    from stlc.sweeping import run
 
-    monkeypatch.setattr("stlc.sweep.task.run_instance", sweep_stub.run_instance)
+    monkeypatch.setattr("stlc.sweeping.task.run_instance", sweep_stub.run_instance)
     f = tmp_path / "m.stl"
     f.write_text(SOURCE)
     out = tmp_path / "out"
@@ -128,7 +128,7 @@ def test_local_workers_get_their_share_of_the_cores(tmp_path):
     # K worker processes on the machine's cores: each derivative map gets cores // K threads
     import os
 
-    from stlc.sweep.run import dask_client
+    from stlc.sweeping.run import dask_client
 
     client, cluster = dask_client(2, None, str(tmp_path / "x.stl"))
     try:

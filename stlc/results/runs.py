@@ -192,20 +192,20 @@ def sweep(program, mission: str | None = None, vary=(), *, random: int | None = 
     warm-started from the plans solved before it; with them, on Dask as the CLI does
     (writing its files into ``out``).  Returns the table (see the module)."""
     from stlc.semantics import overrides
-    from stlc.sweep import axes as axes_mod
+    from stlc.sweeping import axes as axes_mod
 
     path = os.fspath(program) if isinstance(program, (str, os.PathLike)) else program.file
     sets = [f"{k}={v}" for k, v in (set or {}).items()]
     texts = _axes_texts(vary)
     if workers is not None or scheduler is not None or out is not None:
-        from stlc.sweep.run import sweep as run
+        from stlc.sweeping.run import sweep as run
 
         rows: list[dict] = []
         run(path, mission, texts, sets, None if out is None else os.fspath(out), workers,
             scheduler, random, seed, quiet, time_limit=time_limit, collect=rows)
         return _table([axes_mod.parse_axis(path, v) for v in texts], rows)
     from stlc.frontend.syntax import parse, parse_file
-    from stlc.sweep.task import run_instance
+    from stlc.sweeping.task import run_instance
 
     tree = parse_file(path) if isinstance(program, (str, os.PathLike)) else \
         parse(program.source, program.file)

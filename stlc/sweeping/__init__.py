@@ -11,23 +11,6 @@ Dask distributed (a ``LocalCluster`` by default, an existing cluster by address)
 * ``report`` — ``sweep.html``.
 
 From Python, ``stlc.sweep(program, mission, vary={...})`` runs a sweep and returns its table
-(``stlc.results.runs.sweep``); the package itself is callable to that end (see below).
+(``stlc.results.runs.sweep``); this package is the command's, so that name stays free for
+the function.
 """
-
-import sys as _sys
-import types as _types
-
-
-class _CallableSweep(_types.ModuleType):
-    """``stlc.sweep(...)`` is the Python API's sweep (``stlc.results.runs.sweep``) although
-    ``stlc.sweep`` is also this package: importing it (e.g. ``stlc.sweep.axes``) binds the
-    name ``sweep`` on ``stlc`` to the package, so the package answers a call the same way,
-    through the package's lazy facade (``stlc.__getattr__``)."""
-
-    def __call__(self, *args, **kwargs):
-        import stlc
-
-        return stlc.__getattr__("sweep")(*args, **kwargs)
-
-
-_sys.modules[__name__].__class__ = _CallableSweep

@@ -2,7 +2,7 @@
 the candidate seeds in; a CSV row, the plan and its channels out.  CasADi objects never
 travel: the worker process keeps its built NLPs (``nlp_cache``, keyed by structure) between
 tasks, so the first task of a worker builds and later ones bind their values into the same
-NLP.  The client (``stlc.sweep.order``) ships with each task the solved plans of its
+NLP.  The client (``stlc.sweeping.order``) ships with each task the solved plans of its
 nearest solved instances and a predicted plan; the instance starts from the one with the
 best exact robustness at its own values — a start's objective is what the energy stage it
 runs first descends from.  Without shipped seeds (``seeds=None``) the worker's own library
@@ -44,11 +44,11 @@ def run_instance(source: str, path: str, mission: str, items: list[tuple[str, st
     its worker, as ``compile --time-limit`` bounds a compile (no watchdog in a worker: an
     NLP build is not cut); an instance it stops is ``stopped`` (or ``satisfied`` if the
     exact monitor says so); without it the default limit applies (``stlc.deadline``).
-    ``seeds``: solved plans (values, channels, label) the client ships (``stlc.sweep.order``);
+    ``seeds``: solved plans (values, channels, label) the client ships (``stlc.sweeping.order``);
     ``None``: this worker's own library.  A satisfied row carries its plan's ``channels``.
     ``preempt``: the name of a Dask ``Event`` the client sets to pre-empt this (cold)
     instance — its solve stops as on its time limit and the row says ``preempted`` (the
-    client solves the instance again, warm started: ``stlc.sweep.run``)."""
+    client solves the instance again, warm started: ``stlc.sweeping.run``)."""
     from stlc import deadline, settings
 
     t0 = time.perf_counter()

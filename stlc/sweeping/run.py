@@ -1,12 +1,12 @@
 """``stlc sweep``: the client side.  Validate, start (or connect to) a Dask cluster, submit
 one task per instance, show progress, collect rows, write the outputs.
 
-One task per worker thread is in flight (``stlc.sweep.order``: each task carries the plans
+One task per worker thread is in flight (``stlc.sweeping.order``: each task carries the plans
 solved so far); a finished task wakes the client at once (a done-callback queue, not a
 poll) and the next task is submitted before the finished one's bookkeeping, so a worker
 waits only for one round trip.  The first wave is cold and pre-emptible: the first plan
 starts a grace as long as its own IPOPT solve took; then a Dask ``Event`` stops the cold
-instances still running (``stlc.sweep.task``), which are solved again, warm started; their
+instances still running (``stlc.sweeping.task``), which are solved again, warm started; their
 builds count in ``nlp_builds``.  (A cold try that began with the first and still runs then
 is slower than the first by its whole solve time: usually a long one — 216 iterations
 against ~30 warm on ``handover_left_tb``; without the grace a try only seconds from its end
@@ -40,8 +40,8 @@ import numpy as np
 
 from stlc import interrupt
 from stlc.diagnostics import Diagnostic, Span, StlcError
-from stlc.sweep import axes as axes_mod
-from stlc.sweep.order import PREDICTED, Order
+from stlc.sweeping import axes as axes_mod
+from stlc.sweeping.order import PREDICTED, Order
 
 POLL_S = 0.05  #: the client's wait for a finished task (Ctrl-C is seen within it)
 
@@ -114,7 +114,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
           workers: int | None = None, scheduler: str | None = None,
           random: int | None = None, seed: int = 0, quiet: bool = False,
           time_limit: float | None = None, collect: list | None = None) -> int:
-    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweep.task``);
+    """``stlc sweep``; ``time_limit``: each instance's limit (``stlc.sweeping.task``);
     ``collect``: a list that receives the finished rows (the Python API's table)."""
     from stlc.frontend.syntax import parse_file
     from stlc.output.directory import (MANIFEST, STAGE_PREFIX, SWEEP_OWNED, _cleanup, preflight,
@@ -138,7 +138,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
         raise StlcError([Diagnostic("STL102", f"`{clash[0]}` is both varied and set (or "
                                     "varied twice)", Span(path, 1, 1, 1, 2),
                                     "give each name once")])
-    from stlc.sweep.handshake import check_count
+    from stlc.sweeping.handshake import check_count
 
     check_count(path, [a.n for a in axes], random, axes_mod.MAX_INSTANCES)  # before allocating
     insts = axes_mod.instances(axes, random, seed)
@@ -156,7 +156,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     preflight(outdir, span, names=(*SWEEP_OWNED, MANIFEST), dirs=("plans",))
     refuse_foreign(outdir, [f"plans/{i}.csv" for i in range(len(insts))], span)
     if scheduler:
-        from stlc.sweep.handshake import check_scheduler
+        from stlc.sweeping.handshake import check_scheduler
 
         check_scheduler(scheduler, path)  # a Dask handshake within 5 s, or STL607
     try:
@@ -175,7 +175,7 @@ def sweep(path: str, mission: str, vary: list[str], sets: list[str], out: str | 
     try:
         from distributed import Event
 
-        from stlc.sweep.task import run_instance
+        from stlc.sweeping.task import run_instance
 
         client, cluster = dask_client(workers, scheduler, path)
         order = Order([{n: v for n, v, _ in inst} for inst in insts], names)
@@ -323,7 +323,7 @@ def _write(stage, outdir, path, mission, axes, insts, rows_by_i, wall, fixed, wo
            lost: dict | None = None) -> dict:
     from stlc.output.directory import publish
     from stlc.strictjson import strict
-    from stlc.sweep.report import render
+    from stlc.sweeping.report import render
 
     rows = [rows_by_i[i] for i in sorted(rows_by_i)]
     spec_names = sorted({s for r in rows for s in r["specs"]})

@@ -17,7 +17,7 @@ away); it keeps one task per worker in flight and
   has a solved neighbour one grid step away whichever worker solved it;
 * ships with each task the solved plans of its ``K_SEEDS`` nearest solved instances (the
   client holds every plan: they come back with the rows); the worker starts from the one
-  with the best exact robustness at the instance's own values (``stlc.sweep.task``).
+  with the best exact robustness at the instance's own values (``stlc.sweeping.task``).
 
 Nothing here changes what an instance's plan is judged on: only IPOPT's starting point.
 """
@@ -101,7 +101,7 @@ class Order:
         return i
 
     def requeue(self, i: int) -> None:
-        """``i`` waits again (a pre-empted cold try: ``stlc.sweep.run``)."""
+        """``i`` waits again (a pre-empted cold try: ``stlc.sweeping.run``)."""
         self.waiting[i] = True
 
     def add(self, i: int, values: dict[str, float], channels: dict, label: str) -> None:
@@ -127,7 +127,7 @@ class Order:
         does not determine the value at ``i`` (fewer points than its affine hull needs) or
         would extrapolate with a weight beyond ``MAX_WEIGHT``.  It is only a candidate
         start: the worker keeps it if its exact robustness at the instance's own values
-        beats the solved neighbours' (``stlc.sweep.task``); it is not dynamically exact,
+        beats the solved neighbours' (``stlc.sweeping.task``); it is not dynamically exact,
         IPOPT makes it so."""
         ids = [j for j in self.solved if j != i]
         if len(ids) < 2:
