@@ -16,11 +16,13 @@ import sys
 import time
 from pathlib import Path
 
+import jsonschema
 import pytest
 
 from stlc.cli import main
 from stlc.diagnostics import Span, StlcError
 from stlc.output import directory
+from stlc.schemas import schema
 
 ROOT = Path(__file__).resolve().parent.parent
 OWN = {"report.html", "solution.json", "trajectory.csv", directory.MANIFEST}
@@ -150,12 +152,9 @@ def test_concurrent_compiles_to_one_directory_end_with_one_complete_set(two, tmp
     assert sol["mission"] in html
 
 
-def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path):
-    out = tmp_path / "out"
-    out.mkdir()
-    old = {name: f"previous {name}" for name in OWN - {directory.MANIFEST}}
-    for name, text in old.items():
-        (out / name).write_text(text)
+def _interrupted_in_a_solve(tmp_path, out, *options):
+    """``stlc compile`` of a long, slow solve, sent SIGINT at its first IPOPT progress line;
+    returns (process after it ended, stderr before, stderr after, seconds it took to end)."""
     # hexa_climb stretched to 8 s at 0.05 s: a solve that lasts many seconds after its
     # first progress line (the 3 s original could finish before the signal arrived)
     long = tmp_path / "hexa_long.stl"
@@ -171,8 +170,8 @@ def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path)
     # loaded run ended before the signal came); no later stage may run
     slow = {"STLC_IPOPT": '{"ipopt.hessian_approximation": "limited-memory", '
                           '"ipopt.tol": 1e-12, "ipopt.acceptable_iter": 0}'}
-    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out)],
-                         env={**env(), **slow}, stdout=subprocess.PIPE,
+    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out),
+                          *options], env={**env(), **slow}, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
     seen = []
     for line in p.stderr:  # progress lines: interrupt inside IPOPT's iterations
@@ -183,9 +182,18 @@ def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path)
     t0 = time.monotonic()
     p.send_signal(signal.SIGINT)
     rest = p.stderr.read()
-    p.wait(timeout=30)
-    elapsed = time.monotonic() - t0
-    assert p.returncode == 130, "".join(seen) + rest
+    p.wait(timeout=60)
+    return p, "".join(seen), rest, time.monotonic() - t0
+
+
+def test_ctrl_c_during_a_solve_exits_130_at_once_and_keeps_old_outputs(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    old = {name: f"previous {name}" for name in OWN - {directory.MANIFEST}}
+    for name, text in old.items():
+        (out / name).write_text(text)
+    p, seen, rest, elapsed = _interrupted_in_a_solve(tmp_path, out)
+    assert p.returncode == 130, seen + rest
     assert elapsed < 2.0
     assert "interrupted" in rest and "energy" not in rest  # no later stage ran
     assert {q.name: q.read_text() for q in out.iterdir()} == old
@@ -196,45 +204,20 @@ def test_ctrl_c_with_keep_on_interrupt_writes_the_best_verified_plan(tmp_path):
     best verified plan is written (judged by the exact monitor, saying it was interrupted)
     and the command exits 130.  The same slow solve as above."""
     out = tmp_path / "out"
-    long = tmp_path / "hexa_long.stl"
-    long.write_text((ROOT / "tests" / "missions" / "hexa_climb.stl").read_text()
-                    .replace("horizon = 3 s", "horizon = 8 s")
-                    .replace("step = 0.1 s", "step = 0.05 s")
-                    .replace("always[0, 3]", "always[0, 8]")
-                    .replace("eventually[0, 2] always[0, 1]", "eventually[0, 7] always[0, 1]")
-                    .replace("minimize 0.5 * energy - robustness", "maximize robustness"))
-    slow = {"STLC_IPOPT": '{"ipopt.hessian_approximation": "limited-memory", '
-                          '"ipopt.tol": 1e-12, "ipopt.acceptable_iter": 0}'}
-    p = subprocess.Popen([sys.executable, "-m", "stlc", "compile", str(long), "-o", str(out),
-                          "--no-risk", "--keep-on-interrupt"],
-                         env={**env(), **slow}, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
-    seen = []
-    for line in p.stderr:
-        seen.append(line)
-        if "] iter" in line:
-            break
-    t0 = time.monotonic()
-    p.send_signal(signal.SIGINT)
-    rest = p.stderr.read()
-    p.wait(timeout=60)
-    assert p.returncode == 130, "".join(seen) + rest
-    assert time.monotonic() - t0 < 15.0
+    p, seen, rest, elapsed = _interrupted_in_a_solve(tmp_path, out, "--no-risk",
+                                                     "--keep-on-interrupt")
+    assert p.returncode == 130, seen + rest
+    assert elapsed < 15.0
     assert "the best verified plan found is in" in rest and "energy:" not in rest
     sol = json.loads((out / "solution.json").read_text())
     assert any(n.startswith("stopped by Ctrl-C") for n in sol["notes"])
     assert sol["solver"]["stopped_by"] == "interrupted" and sol["solver"]["converged"] is False
     assert not any("time limit" in n for n in sol["notes"])
-    import jsonschema
-
-    from stlc.schemas import schema
-
     jsonschema.validate(sol, schema("solution"))
     jsonschema.validate({**sol, "status": "stopped"}, schema("solution"))  # a stopped run
     # what is written is what the exact monitor says of the written trajectory
-    r = subprocess.run([sys.executable, "-m", "stlc", "monitor", str(long), "--trace",
-                        str(out / "trajectory.csv"), "--mission", "climb", "--json"],
+    r = subprocess.run([sys.executable, "-m", "stlc", "monitor", str(tmp_path / "hexa_long.stl"),
+                        "--trace", str(out / "trajectory.csv"), "--mission", "climb", "--json"],
                        env=env(), capture_output=True, text=True, timeout=60)
     specs = json.loads(r.stdout)["specs"]
-    assert specs["climb"]["robustness"] == pytest.approx(sol["robustness"]["exact"],
-                                                               abs=1e-9)
+    assert specs["climb"]["robustness"] == pytest.approx(sol["robustness"]["exact"], abs=1e-9)
