@@ -6,9 +6,6 @@ Clopper–Pearson bound from scipy, the per-run monitor loop, and local vs Dask 
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,19 +15,10 @@ from stlc.analysis.trace import read_trace
 from stlc.flight import engine, rigid, wind
 from stlc.pipeline import load
 
+from clirun import stlc
+
 ROOT = Path(__file__).resolve().parent.parent
 CLIMB = ROOT / "tests" / "missions" / "hexa_climb.stl"
-
-
-def _env() -> dict[str, str]:
-    e = {k: v for k, v in os.environ.items() if k != "STLC_DEBUG"}
-    e["PYTHONPATH"] = str(ROOT) + os.pathsep + e.get("PYTHONPATH", "")
-    return e
-
-
-def stlc(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "stlc", *args], cwd=cwd, env=_env(),
-                          capture_output=True, text=True, timeout=600)
 
 
 @pytest.fixture(scope="module")

@@ -7,9 +7,6 @@ from __future__ import annotations
 
 import csv
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,18 +17,9 @@ from hypothesis import strategies as st
 from stlc.analysis.trace import read_trace
 from stlc.flight import frames
 
+from clirun import stlc
+
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def _env() -> dict[str, str]:
-    e = {k: v for k, v in os.environ.items() if k != "STLC_DEBUG"}
-    e["PYTHONPATH"] = str(ROOT) + os.pathsep + e.get("PYTHONPATH", "")
-    return e
-
-
-def stlc(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "stlc", *args], cwd=cwd, env=_env(),
-                          capture_output=True, text=True, timeout=300)
 
 
 @pytest.fixture(scope="module")
