@@ -152,3 +152,33 @@ def test_fly_recovers_on_the_replanned_reference(pushed, tmp_path):
     assert rec["replans"] == rec["accepted"] == 1
     (r,) = rec["recoveries"]
     assert r["accepted"] and r["back_at"] == 5.5 and r["vehicle"] == "p"
+
+
+def test_a_kick_past_vel_max_is_replanned_back_inside_the_bound(pushed):
+    """A velocity kick of 3 m/s in y (vel_max 2 m/s) at 4 s: the start is outside the
+    state bounds, so the segment's bound on vel.y is widened by what the vehicle cannot
+    have shed at 1.5 m/s² — node j allows 3 − 1.5·j·0.5 — and the replan is flown; the
+    flown speed never exceeds that envelope and is back under 2 m/s after 2 steps."""
+    path, _ = pushed
+    program = pipeline.load(str(path)).program
+    m = program.missions["watch"]
+    problem = from_mission(program, m)
+    v = problem.vehicles()[0]
+    vm = vehicles.model_of(v)
+    n = problem.grid.n
+    x0 = vm.initial_state(v)
+    ch = {c: np.full(n, x0[i]) for i, c in enumerate(vm.state_channels(v))}
+    ch.update({c: np.zeros(n) for c in vm.input_channels(v)})
+    plan = Solution(m.name, "satisfied", 0.0, 0.0, {}, 0.0, problem.grid.times(), ch)
+    kick = model.Disturbance("p", 4.0, (0.0, 0.0, 0.0), (0.0, 3.0, 0.0))
+    res = disturb.simulate_disturbances(problem, plan, [kick], m.replan,
+                                        segment=SegmentBackend)
+    (e,) = res.triggered
+    assert e.accepted and e.detail["outside_bounds"] == {"p.vel.y": pytest.approx(1.0)}
+    vy, t = res.executed["p.vel.y"], res.times
+    s = int(round(e.segment[0] / 0.5))
+    assert vy[s] == pytest.approx(3.0)  # flown open loop until the replan starts
+    for j in range(1, 8):
+        assert abs(vy[s + j]) <= max(2.0, 3.0 - 1.5 * 0.5 * j) + 1e-6
+    assert np.all(np.abs(vy[s + 2:]) <= 2.0 + 1e-6)
+    assert res.executed["p.pos.y"][-1] == pytest.approx(0.0, abs=1e-5)  # back on the plan

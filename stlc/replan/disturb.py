@@ -364,7 +364,9 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
                  "objective": res.solver["objective"],
                  "start_deviation": float(np.linalg.norm(x_start[tr.pos] - tr.ref_X[s, tr.pos])),
                  "variables": res.problem_size["variables"],
-                 "constraints": res.problem_size["constraints"]}
+                 "constraints": res.problem_size["constraints"],
+                 **({"outside_bounds": res.solver["outside_bounds"]}
+                    if "outside_bounds" in res.solver else {})}
     if first:
         ev.detail["build_s"] = res.timing["build_s"]
     if not ev.accepted:  # say why (stlc.replan.explain)

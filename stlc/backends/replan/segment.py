@@ -38,6 +38,11 @@ trajectory NLP that replanning needs and nothing more:
   penalty, so the segment keeps the specs wherever it can and otherwise takes the way back
   with the least summed shortfall below κ — it leaves the violation set as fast as the
   vehicle's bounds allow, then keeps the specs;
+* **a start outside the state bounds** (a velocity kick past ``vel_max``) — node j's bound
+  on that component is widened by what the vehicle cannot have shed by then: the excess
+  less ``a·j·dt`` for a velocity (``a`` the model's sound acceleration bound), less a
+  linear share of the segment otherwise; the widening is gone once the vehicle can be back
+  inside (``SegmentResult.detail["outside_bounds"]`` names the components);
 * **parameters** — start state, goal state, reference positions, mask: nothing is rebuilt
   between events.  The primal guess is the reference with the start offset fading out
   linearly over the segment; IPOPT's multipliers are not warm-started.
@@ -200,11 +205,11 @@ class SegmentNlp:
         p = np.concatenate([x_start, goal, Xr[:, self.pos].ravel(), mask])
         w0 = np.concatenate([Xg.ravel(), Ug.ravel(), np.zeros(M)])
         lbg, ubg = self.bounds_g(s, L)
-        ubx = self.ubx.copy()
+        lbx, ubx, outside = self._widened(x_start, L)
         if recover:
             ubx[-M:] = np.inf
         c0, t0 = time.process_time(), time.perf_counter()
-        sol = self.solver(x0=w0, p=p, lbx=self.lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        sol = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         st = self.solver.stats()
         ret = str(st.get("return_status", "unknown"))
@@ -215,7 +220,30 @@ class SegmentNlp:
             status=STATUS_MAP.get(ret, SolverStatus.FAILED), return_status=ret,
             iterations=int(st.get("iter_count", 0)), solve_s=wall, cpu_s=cpu,
             X=np.vstack([x_start, X[:L]]), U=U[:L].copy(), objective=float(sol["f"]),
-            detail={"ipopt_wall_s": float(st.get("t_wall_total", wall))})
+            detail={"ipopt_wall_s": float(st.get("t_wall_total", wall)),
+                    **({"outside_bounds": outside} if outside else {})})
+
+    def _widened(self, x_start: np.ndarray, L: int) -> tuple[np.ndarray, np.ndarray, dict]:
+        """The variable bounds for a start ``x_start``, widened per node where the start
+        lies outside a state bound (module docstring); the components outside (name →
+        excess, SI)."""
+        M, nx = self.M, self.nx
+        lbx, ubx = self.lbx.copy(), self.ubx.copy()
+        lo, hi = self.lbx[:nx], self.ubx[:nx]
+        over = np.maximum(x_start - hi, 0.0) + np.maximum(lo - x_start, 0.0)
+        if not np.any(over > 0):
+            return lbx, ubx, {}
+        rate = over / (max(L, 1) * self.dt)  # a linear share of the segment
+        _, a_lo, a_hi = self.vm.kinematic_envelope(self.vehicle)
+        vel = self.vm.vel_index()
+        rate[vel] = np.maximum(np.abs(a_lo), np.abs(a_hi))
+        j = np.arange(1, M + 1)[:, None] * self.dt
+        extra = np.maximum(over[None, :] - rate[None, :] * j, 0.0)  # (M, nx)
+        up, down = x_start > hi, x_start < lo
+        ubx[:nx * M] += (extra * up[None, :]).ravel()
+        lbx[:nx * M] -= (extra * down[None, :]).ravel()
+        names = self.vm.state_channels(self.vehicle)
+        return lbx, ubx, {names[i]: float(over[i]) for i in np.flatnonzero(over > 0)}
 
     def integrate(self, x_start: np.ndarray, U: np.ndarray) -> np.ndarray:
         """States (L + 1, nx) from flying the inputs ``U`` (L, nu) open loop."""
