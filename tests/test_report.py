@@ -829,3 +829,12 @@ def test_region_roles_do_not_depend_on_names(tmp_path):
     assert roles["operator.zone1"] == "nofly" and roles["operator.zone2"] == "visibility"
     assert roles["operator.zone3"] == "approach" and roles["operator.ltb1"] == "approach"
     assert roles["pole"] == "nofly" and roles["workspace"] == "workspace"
+
+
+def test_solver_details_are_spelled_out_not_python():
+    from stlc.output.report.view import _plain
+
+    phases = [["first plan", 0.25, True], ["better class (choices free)", 1.5, False]]
+    assert _plain(phases) == "first plan, 0.25, True, better class (choices free), 1.5, False"
+    assert _plain({"grid": 0.5, "binaries": 120}) == "grid: 0.5; binaries: 120"
+    assert _plain([]) == "—" and _plain({}) == "—"

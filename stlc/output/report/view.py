@@ -49,6 +49,17 @@ SIGNED_STAGE_KEYS = ("smooth", "exact")
 TIMING_ORDER = ("parse_s", "check_s", "build_s", "guess_s", "solve_s", "risk_s", "total_s")
 
 
+
+def _plain(v) -> str:
+    """A solver record's value as text: lists and mappings spelled out, not as Python."""
+    if isinstance(v, dict):
+        return "; ".join(f"{k}: {_plain(x)}" for k, x in v.items()) or "—"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_plain(x) for x in v) if v else "—"
+    if isinstance(v, float):
+        return fmt(v)
+    return str(v)
+
 def _cell(v: object, signed: bool = False) -> str:
     if isinstance(v, bool) or v is None or isinstance(v, str):
         return "—" if v is None else str(v)
@@ -152,7 +163,7 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
     timing = [{"name": k.removesuffix("_s"), "text": fmt(sol.timing[k], 3, unit="s")}
               for k in (*TIMING_ORDER, *sorted(set(sol.timing) - set(TIMING_ORDER)))
               if k in sol.timing]
-    solver_extra = [{"name": str(k), "text": str(v)} for k, v in sol.solver.items()
+    solver_extra = [{"name": str(k), "text": _plain(v)} for k, v in sol.solver.items()
                     if k not in ("name", "iterations", "return_status", "stages", "chain")]
     chain = sol.solver.chain.to_json() if sol.solver.chain is not None else {}
     chain_text = (f"{chain.get('name', '?')}{' (forced)' if chain.get('forced') else ''}: "
@@ -166,7 +177,8 @@ def _summary(program: Program, mission: Mission, sol: Solution, energy_text: str
         "mission": sol.mission or mission.name,
         "file": program.file,
         "status": sol.status,
-        "status_label": STATUS_LABELS.get(sol.status, sol.status),
+        "status_label": ("Stopped (Ctrl-C)" if sol.solver.stopped_by == "interrupted" else
+                         STATUS_LABELS.get(sol.status, sol.status)),
         "robustness_exact": num(sol.robustness_exact),
         "robustness_exact_text": fmt(sol.robustness_exact, signed=True),
         "robustness_smooth": num(sol.robustness_smooth),
@@ -276,6 +288,11 @@ def _banner(sol: Solution, rows: list[dict], kappa: float) -> dict | None:
                 f"“{_or(rec.return_status, 'unknown')}” after "
                 f"{_or(rec.iterations, '?')} iterations; the plan below is its last "
                 f"iterate; {words.impossibility_note(rec.infeasibility)}.")
+    elif sol.status == "stopped" and sol.solver.stopped_by == "interrupted":
+        title = "Stopped by Ctrl-C"
+        lead = (f"Ctrl-C (with --keep-on-interrupt) ended the search before a satisfying "
+                f"plan was found; the plan below is the best verified one (exact robustness "
+                f"ρ = {fmt(sol.robustness_exact, signed=True)} < κ = {fmt(kappa)}).")
     elif sol.status == "stopped":
         title = "Stopped by the time limit"
         lead = (f"The time limit of {_or(sol.solver.time_limit_s, '?')} s ended the search "
