@@ -835,6 +835,6 @@ def test_solver_details_are_spelled_out_not_python():
     from stlc.output.report.view import _plain
 
     phases = [["first plan", 0.25, True], ["better class (choices free)", 1.5, False]]
-    assert _plain(phases) == "first plan, 0.25, True, better class (choices free), 1.5, False"
+    assert _plain(phases) == "first plan, 0.25, True; better class (choices free), 1.5, False"
     assert _plain({"grid": 0.5, "binaries": 120}) == "grid: 0.5; binaries: 120"
     assert _plain([]) == "—" and _plain({}) == "—"

@@ -54,8 +54,9 @@ def _plain(v) -> str:
     """A solver record's value as text: lists and mappings spelled out, not as Python."""
     if isinstance(v, dict):
         return "; ".join(f"{k}: {_plain(x)}" for k, x in v.items()) or "—"
-    if isinstance(v, (list, tuple)):
-        return ", ".join(_plain(x) for x in v) if v else "—"
+    if isinstance(v, (list, tuple)):  # a list of records: one record per "; "
+        sep = "; " if any(isinstance(x, (list, tuple, dict)) for x in v) else ", "
+        return sep.join(_plain(x) for x in v) if v else "—"
     if isinstance(v, float):
         return fmt(v)
     return str(v)
