@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 
-MIN_BINARIES = 3000  #: a MILP with more binaries than this is searched in blocks
-BLOCK_BINARIES = 1000  #: binaries integer per block (about; whole samples)
+MIN_BINARIES = 1000  #: a MILP with more binaries than this is searched in blocks
+BLOCK_BINARIES = 500  #: binaries integer per block (about; whole samples)
 OVERLAP = 0.5  #: … and this fraction of a block after it integer too
 BACKTRACK = 2  #: a block with no point is solved again with this many blocks before it freed
 
