@@ -73,8 +73,6 @@ def feasible(milp, top: int, kappa_lo: float, limit: float, at: dict[int, int] |
 
 def _blocks(milp, top, kappa_lo, ints, at, left, phases):
     """Relax-and-fix: the result of the last block, or None when a block finds no point."""
-    import highspy
-
     from stlc.solvers.highs import Highs
 
     when = np.array([at.get(int(j), -1) for j in ints])
@@ -91,9 +89,9 @@ def _blocks(milp, top, kappa_lo, ints, at, left, phases):
         for j, k in zip(ints, when):
             if k < lo:
                 v = float(round(x[j]))
-                h.h.changeColBounds(int(j), v, v)
+                h.set_col_bounds(int(j), v, v)
             elif k >= end:
-                h.h.changeColIntegrality(int(j), highspy.HighsVarType.kContinuous)
+                h.relax(int(j))
         res = h.solve()
         wall += res.wall_s
         if res.x is None:
