@@ -30,6 +30,8 @@ import numpy as np
 MIN_BINARIES = 1000  #: a MILP with more binaries than this is searched in blocks
 BLOCK_BINARIES = 500  #: binaries integer per block (about; whole samples)
 OVERLAP = 0.5  #: … and this fraction of a block after it integer too
+BLOCK_S = 3.0  #: a block maximises ρ̂ for at most this long (then: its first point) …
+BLOCK_GAP = 0.2  #: … to this relative gap
 BACKTRACK = 2  #: a block with no point is solved again with this many blocks before it freed
 
 
@@ -77,8 +79,6 @@ def feasible(milp, top: int, kappa_lo: float, limit: float, at: dict[int, int] |
 
 def _blocks(milp, top, kappa_lo, ints, at, left, phases):
     """Relax-and-fix: the result of the last block, or None when a block finds no point."""
-    from stlc.solvers.highs import Highs
-
     when = np.array([at.get(int(j), -1) for j in ints])
     n = int(when[when < 1 << 30].max()) + 1
     when = np.clip(when, 0, n - 1)  # a choice of constants only: the last block decides it
@@ -88,15 +88,9 @@ def _blocks(milp, top, kappa_lo, ints, at, left, phases):
     while True:
         end = start + size + over
         lo = max(start - back * size, 0)  # a block with no point: re-decide earlier ones too
-        h = Highs(milp, {}, time_limit=left(), rel_gap=1e-4, abs_gap=1e-6, feasibility=True)
-        h.set_col_bounds(top, kappa_lo, milp.hi[top])
-        for j, k in zip(ints, when):
-            if k < lo:
-                v = float(round(x[j]))
-                h.set_col_bounds(int(j), v, v)
-            elif k >= end:
-                h.relax(int(j))
-        res = h.solve()
+        res = _block(milp, top, kappa_lo, ints, when, x, lo, end, left, best=True)
+        if res.x is None and res.highs_status == "Time limit reached" and left() > 0.1:
+            res = _block(milp, top, kappa_lo, ints, when, x, lo, end, left, best=False)
         wall += res.wall_s
         if res.x is None:
             phases.append((f"feasibility in blocks (samples {lo}–{min(end, n) - 1})",
@@ -111,3 +105,25 @@ def _blocks(milp, top, kappa_lo, ints, at, left, phases):
             res.wall_s = wall
             return res
         start += size
+
+
+def _block(milp, top, kappa_lo, ints, when, x, lo, end, left, best: bool):
+    """One block's MILP: binaries before sample ``lo`` fixed at ``x``, from ``end`` on
+    continuous.  ``best``: ρ̂ maximised for at most ``BLOCK_S`` (to ``BLOCK_GAP``) — a block
+    that only meets κ leaves later blocks a path at the edge of every region, and the exact
+    MILP that starts from it a worse class; else the first point with ρ̂ ≥ κ."""
+    from stlc.solvers.highs import Highs
+
+    if best:
+        h = Highs(milp, {top: -1.0}, time_limit=min(left(), BLOCK_S), rel_gap=BLOCK_GAP,
+                  abs_gap=1e-3, feasibility=True)
+    else:
+        h = Highs(milp, {}, time_limit=left(), rel_gap=1e-4, abs_gap=1e-6, feasibility=True)
+    h.set_col_bounds(top, kappa_lo, milp.hi[top])
+    for j, k in zip(ints, when):
+        if k < lo:
+            v = float(round(x[j]))
+            h.set_col_bounds(int(j), v, v)
+        elif k >= end:
+            h.relax(int(j))
+    return h.solve()
