@@ -52,10 +52,11 @@ def small_blocks(monkeypatch):
     monkeypatch.setattr(rolling, "BLOCK_BINARIES", 8)
 
 
-def test_blocks_give_a_point_of_the_whole_model(small_blocks):
+@pytest.mark.parametrize("best", [False, True])
+def test_blocks_give_a_point_of_the_whole_model(small_blocks, best):
     m, x, y, top, at = _model(visits=3)
     phases: list = []
-    res = rolling.feasible(m, top, 0.5, 30.0, at, phases)
+    res = rolling.feasible(m, top, 0.5, 30.0, at, best, phases)
     assert res.x is not None and _meets(m, res.x)
     assert res.x[top] >= 0.5 - 1e-9
     assert sum(round(res.x[j]) for j in y) >= 3  # the visits, counted independently
@@ -63,20 +64,22 @@ def test_blocks_give_a_point_of_the_whole_model(small_blocks):
     assert phases[-1][0].startswith("feasibility in blocks")
 
 
-def test_no_point_is_decided_by_the_whole_model(small_blocks):
+@pytest.mark.parametrize("best", [False, True])
+def test_no_point_is_decided_by_the_whole_model(small_blocks, best):
     # at most ⌈60 / 10⌉ = 6 visits fit, and the walker needs 5 samples to reach x = 5:
     # 6 visits at gaps of 10 would need one at sample ≤ 9 … 59 — the first at 5 leaves 5
     # more (15, …, 55): 6 in all; 7 are impossible.
     m, x, y, top, at = _model(visits=7)
     phases: list = []
-    res = rolling.feasible(m, top, 0.5, 30.0, at, phases)
+    res = rolling.feasible(m, top, 0.5, 30.0, at, best, phases)
     assert res.x is None
     assert phases[-1] == ("feasibility", "Infeasible", phases[-1][2])  # the whole MILP's
 
 
 def test_small_models_are_searched_whole():
+    best = True
     m, x, y, top, at = _model(visits=3)
     phases: list = []
-    res = rolling.feasible(m, top, 0.5, 30.0, at, phases)
+    res = rolling.feasible(m, top, 0.5, 30.0, at, best, phases)
     assert res.x is not None and _meets(m, res.x)
     assert [p[0] for p in phases] == ["feasibility"]

@@ -9,8 +9,8 @@ the 100 s two-mast inspection's seed, 1.7 k binaries: 11 s whole, 1.2 s in block
 sample is decided with the window's first sample, so a deadline is never left to a later
 block), and each MILP keeps the binaries of the blocks already solved fixed at their values,
 the binaries of this block and an overlap after it integer, and every later one continuous
-in [0, 1]. The last MILP has every binary integer or fixed: its point meets every row of the
-model.
+in [0, 1], and maximises ρ̂ for a few seconds (``_block``). The last MILP has every binary
+integer or fixed: its point meets every row of the model.
 
 A block with no point proves nothing (earlier choices were fixed by a heuristic): it is
 solved again with the block before it freed, then the two before it (``BACKTRACK``); if
@@ -56,7 +56,7 @@ def samples(low) -> dict[int, int]:
 
 
 def feasible(milp, top: int, kappa_lo: float, limit: float, at: dict[int, int] | None,
-             phases: list):
+             best: bool, phases: list):
     """A point with ρ̂ ≥ ``kappa_lo`` (``Highs`` result): in blocks along the grid when the
     model is large and ``at`` maps its binaries to samples, else (or when a block finds
     none) the whole feasibility MILP in the time left.  Appends its phases."""
@@ -66,7 +66,7 @@ def feasible(milp, top: int, kappa_lo: float, limit: float, at: dict[int, int] |
     left = lambda: max(limit - (time.perf_counter() - t0), 0.05)  # noqa: E731
     ints = np.flatnonzero(milp.integer)
     if at is not None and len(ints) > MIN_BINARIES:
-        res = _blocks(milp, top, kappa_lo, ints, at, left, phases)
+        res = _blocks(milp, top, kappa_lo, ints, at, left, phases, best)
         if res is not None:
             return res
 
@@ -77,7 +77,7 @@ def feasible(milp, top: int, kappa_lo: float, limit: float, at: dict[int, int] |
     return res
 
 
-def _blocks(milp, top, kappa_lo, ints, at, left, phases):
+def _blocks(milp, top, kappa_lo, ints, at, left, phases, best: bool):
     """Relax-and-fix: the result of the last block, or None when a block finds no point."""
     when = np.array([at.get(int(j), -1) for j in ints])
     n = int(when[when < 1 << 30].max()) + 1
@@ -88,8 +88,8 @@ def _blocks(milp, top, kappa_lo, ints, at, left, phases):
     while True:
         end = start + size + over
         lo = max(start - back * size, 0)  # a block with no point: re-decide earlier ones too
-        res = _block(milp, top, kappa_lo, ints, when, x, lo, end, left, best=True)
-        if res.x is None and res.highs_status == "Time limit reached" and left() > 0.1:
+        res = _block(milp, top, kappa_lo, ints, when, x, lo, end, left, best=best)
+        if best and res.x is None and res.highs_status == "Time limit reached" and left() > 0.1:
             res = _block(milp, top, kappa_lo, ints, when, x, lo, end, left, best=False)
         wall += res.wall_s
         if res.x is None:
