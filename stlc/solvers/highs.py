@@ -157,6 +157,12 @@ class Highs:
     def set_col_bounds(self, col: int, lo: float, hi: float) -> None:
         self.h.changeColBounds(col, lo, hi)
 
+    def relax(self, col: int) -> None:
+        """An integer column made continuous (within its bounds)."""
+        import highspy
+
+        self.h.changeColIntegrality(int(col), highspy.HighsVarType.kContinuous)
+
     def fix_integers(self, x: np.ndarray) -> None:
         """Every integer column fixed at its (rounded) value in ``x``: the discrete choices
         of a point kept, the rest an LP."""

@@ -186,7 +186,7 @@ class KnotNlp(Backend):
             cc, ce, cp_ = refine(problem, c.channels, m)
             sol.comparisons.append(replace(c, channels=cc, energy=ce, energy_profile=cp_))
         seed = sols[0].solver if sols else {}
-        seed = seed.to_json() if hasattr(seed, "to_json") else dict(seed)
+        seed = seed.to_json() if hasattr(seed, "to_json") else dict(seed)  # as data
         sol.solver.update({"knots": {"step_s": m * problem.grid.dt, "knots": len(sol_c.times),
                                      "samples": problem.grid.n}, "seed": seed})
         sol.problem_size["samples"] = problem.grid.n

@@ -64,6 +64,7 @@ from stlc.backends.nlp.backend import KinematicGuess
 from stlc.backends.nlp.kinematic import build_in_thread
 from stlc.backends.milp.backend import HIGHS_STATUS_MAP
 from stlc.backends.milp.encode import NotLinear
+from stlc.backends.milp.rolling import feasible, samples
 from stlc.planning.coarse_grid import MAX_SAMPLES, MAX_STEP_S, refine, seed_factor  # noqa: F401
 from stlc.backends.milp.seed_inner import inner_norms
 from stlc.semantics import ir
@@ -155,7 +156,7 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
 
 def plan(problem, time_limit: float | None = None, quiet: bool = True,
          exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False,
-         defer_free: bool = False, on_solve=None):
+         defer_free: bool = False, on_solve=None, best_blocks: bool = False):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
     of the MILP; the paths are None when the MILP found none (or cannot be built).
     ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
@@ -168,7 +169,7 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
     third value returned — None, or a function that runs it: ((paths, record) of a better
     class, or None when it finds none; its phases) — ``MilpPathSeed`` runs it beside the
     kinematic smoothing.  ``on_solve()`` is called once the MILP is built, just before HiGHS
-    runs (not for a mission the MILP cannot encode)."""
+    runs (not for a mission the MILP cannot encode); ``best_blocks``: ``rolling.feasible``'s."""
     from stlc.backends.milp.backend import build, invariant_box
 
     t0 = time.perf_counter()
@@ -224,7 +225,7 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
     if on_solve is not None:
         on_solve()
     res, phases = _solve(milp, low.top, cost, problem.threshold, limit, rounds,
-                         low.encoder.complete, free=not defer_free)
+                         low.encoder.complete, not defer_free, (samples(low), best_blocks))
     rec.update({"step_s": h, "samples": coarse.n, "binaries": milp.n_binaries,
                 "build_s": low.build_s, "excluded": len(exclude)})
     if low.top >= 0:  # the encoding's own bound on ρ̂ (a start inside a no-fly box: < κ)
@@ -260,9 +261,10 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
 
 
 def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
-           rounds: int = ROUNDS, complete=None, free: bool = True):
+           rounds: int = ROUNDS, complete=None, free: bool = True, at=None):
     """Three phases: a path with ρ̂ ≥ κ (a feasibility MILP: HiGHS finds one far sooner than
-    it closes any optimisation); then a local search for a shorter path (a feasibility
+    it closes any optimisation; on a large one block by block along the grid, ``at``: the
+    sample of each column and ``best_blocks``, ``rolling``); then a local search for a shorter path (a feasibility
     solution's choices at samples where nothing binds are arbitrary: a path that wanders):
     with the choices fixed, the LP minimising the acceleration penalty under ρ̂ ≥ κ, then
     the best choices on that path (``complete``: ``Encoder.complete``), again while the
@@ -282,10 +284,7 @@ def _solve(milp, top: int, cost: dict[int, float], kappa: float, limit: float,
     best, x = None, None
     if top >= 0:
         kappa_lo = min(max(milp.lo[top], kappa), milp.hi[top])
-        h = Highs(milp, {}, time_limit=limit, rel_gap=1e-4, abs_gap=1e-6, feasibility=True)
-        h.set_col_bounds(top, kappa_lo, milp.hi[top])
-        best = h.solve()
-        phases.append(("feasibility", best.highs_status, best.wall_s))
+        best = feasible(milp, top, kappa_lo, limit, *(at or (None, False)), phases)
         if best.highs_status == "Infeasible":  # no seed path reaches κ: the caller asks for a proof
             return best, phases
         x = None if best.x is None else best.x.copy()

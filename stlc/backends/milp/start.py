@@ -66,7 +66,8 @@ class CoarseStart(Backend):
         t0 = time.perf_counter()
         if problem.grid.n <= MAX_SAMPLES or seed_factor(problem.grid, problem.requirement) <= 1:
             return None, {"status": "not needed (a small grid: the exact MILP starts itself)"}
-        paths, rec = plan(problem, time_limit=self.time_limit, rounds=0, keep_clear=True)
+        paths, rec = plan(problem, time_limit=self.time_limit, rounds=0, keep_clear=True,
+                          best_blocks=True)  # the exact MILP's incumbent starts in its class
         rec.pop("choices", None)
         rec["total_s"] = time.perf_counter() - t0
         return paths, rec
