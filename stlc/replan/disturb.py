@@ -391,17 +391,20 @@ def _replan(problem, tr: _Track, ev: ReplanEvent, k: int, cfg: model.ReplanConfi
         tr.D[s:g] = 0.0  # the segment is an exact solution of the model
 
 
-def _kept(problem, tr: _Track, X: np.ndarray, first: int, last: int) -> dict[str, float]:
-    """Exact robustness of each kept spec's clauses on samples first..last of X (doc)."""
+def _clause_signals(problem, tr: _Track, X: np.ndarray) -> list[tuple[Clause, np.ndarray]]:
+    """Each kept clause with the exact robustness signal of its body on the states X."""
     v = tr.vehicle
     ch = {c: X[:, i] for i, c in enumerate(vehicles.model_of(v).state_channels(v))}
+    return [(cl, monitor.robustness_signal(cl.body, problem.grid.dt, ch, problem.params))
+            for cl in tr.clauses]
+
+
+def _kept(problem, tr: _Track, X: np.ndarray, first: int, last: int) -> dict[str, float]:
+    """Exact robustness of each kept spec's clauses on samples first..last of X (doc)."""
     out: dict[str, float] = {}
-    for cl in tr.clauses:
+    for cl, sig in _clause_signals(problem, tr, X):
         a, b = max(first, cl.first), min(last, cl.last)
-        r = math.inf
-        if a <= b:
-            sig = monitor.robustness_signal(cl.body, problem.grid.dt, ch, problem.params)
-            r = float(np.min(sig[a:b + 1]))
+        r = float(np.min(sig[a:b + 1])) if a <= b else math.inf
         out[cl.spec] = min(out.get(cl.spec, math.inf), r)
     return out
 
@@ -424,9 +427,9 @@ def _back(problem, tr: _Track, X: np.ndarray, first: int, last: int) -> int | No
     """The first sample r of first..last from which every kept clause is ≥ κ up to
     ``last`` (a recovery is back on its kept specs there); None if none is."""
     ok = np.ones(last - first + 1, bool)
-    for r in range(first, last + 1):
-        ok[r - first] = all(verdict.satisfied(x, problem.threshold)
-                            for x in _kept(problem, tr, X, r, r).values())
+    for cl, sig in _clause_signals(problem, tr, X):  # a clause holds outside its window
+        for r in range(max(first, cl.first), min(last, cl.last) + 1):
+            ok[r - first] &= verdict.satisfied(float(sig[r]), problem.threshold)
     bad = np.flatnonzero(~ok)
     r = first if bad.size == 0 else int(bad[-1]) + 1 + first
     return r if r <= last else None
