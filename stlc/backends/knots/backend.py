@@ -147,6 +147,7 @@ class KnotNlp(Backend):
         from stlc.backends.base import run_chain
         from stlc.backends.nlp.backend import CasadiNlp
         from stlc.backends.milp.seed import MilpPathSeed
+        from stlc.backends.nlp.backend import seed_paths
 
         t0 = time.perf_counter()
         m = knot_factor(problem)
@@ -156,12 +157,37 @@ class KnotNlp(Backend):
         check_nlp(cp, problem.mission.span)  # STL606 before anything is built
         self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
                   f"({cp.grid.n} knots for {problem.grid.n} samples)")
-        sol_c, sols = run_chain(cp, [MilpPathSeed(self.quiet), CasadiNlp(self.quiet)])
-        if sol_c.status == "infeasible":  # a proof about the knots only: not reported
+        seed = MilpPathSeed(self.quiet, smooth=False)
+        path, _ = run_chain(cp, [seed])
+        if path.status == "infeasible":  # a proof about the knots only: not reported
             self._say(problem, "the knots' seed found no path; planning on the mission "
                       "grid instead")
             return "grid", self._on_grid(problem), t0
-        return "knots", (m, sol_c, sols), t0
+        given = (seed_paths(path, cp.team, cp.grid.n), dict(path.solver.get("seed", {})))
+        fixed = self._fixed(cp, path)
+        if fixed is not None:
+            self._say(problem, "the seed's timing kept: every window needed at one sample "
+                      "closed on the sample the seed chose")
+            sol_c, sols = run_chain(fixed, [MilpPathSeed(self.quiet, given=given),
+                                            CasadiNlp(self.quiet)])
+            if sol_c.feasible and _exact(cp, sol_c.channels) >= cp.threshold:
+                sol_c.notes.append("the knots were planned with the seed's timing kept (every "
+                                   "window needed at one sample closed on the seed's sample)")
+                return "knots", (m, sol_c, sols, fixed), t0
+            self._say(problem, "the plan with the seed's timing misses κ on the knots: "
+                      "planning them with the formula as written")
+        sol_c, sols = run_chain(cp, [MilpPathSeed(self.quiet, given=given),
+                                     CasadiNlp(self.quiet)])
+        return "knots", (m, sol_c, sols, cp), t0
+
+    @staticmethod
+    def _fixed(cp: PlanningProblem, path: Solution) -> PlanningProblem | None:
+        """``cp`` with the seed path's timing kept (``windows.fix_windows``), or None."""
+        from stlc.backends.knots.windows import fix_windows
+
+        f = fix_windows(cp.requirement, cp.grid.dt, {**cp.fixed_channels, **path.channels},
+                        cp.params, cp.grid.n)
+        return None if f is None else replace(cp, requirement=f)
 
     def _on_grid(self, problem):
         """The ``nlp`` chain on the mission grid: MILP seed → full NLP."""
@@ -176,7 +202,7 @@ class KnotNlp(Backend):
         if how == "grid":
             sol, _ = payload
             return sol
-        m, sol_c, sols = payload
+        m, sol_c, sols, planned = payload
         ch, energy, prof = refine(problem, sol_c.channels, m)
         sol = replace(sol_c, times=problem.grid.times(), channels=ch, energy=energy,
                       energy_profile=prof, comparisons=[], timing=dict(sol_c.timing),
@@ -196,11 +222,11 @@ class KnotNlp(Backend):
                          f"between them, inputs held), then simulated on the mission grid")
         rho = _exact(problem, sol.channels)
         self._say(problem, f"knot plan on the mission grid: exact robustness {rho:+.4f}")
-        sol, rho = self._tighten(problem, m, sol_c, sol, rho)
+        sol, rho = self._tighten(problem, planned, m, sol_c, sol, rho)
         return self._polish(problem, sol, rho)
 
-    def _tighten(self, problem: PlanningProblem, m: int, sol_c: Solution, sol: Solution,
-                 rho: float) -> tuple[Solution, float]:
+    def _tighten(self, problem: PlanningProblem, planned: PlanningProblem, m: int,
+                 sol_c: Solution, sol: Solution, rho: float) -> tuple[Solution, float]:
         """The knots met κ but the mission grid does not (a corner cut between knots, a
         speed exceeded between them): plan the knots again, from their plan, with κ raised
         by the gap seen (``TIGHTEN_ROUNDS`` at most); the best plan on the mission grid
@@ -209,18 +235,18 @@ class KnotNlp(Backend):
         from stlc.backends.nlp.backend import CasadiNlp
         from stlc.backends.nlp.library import LibrarySeed
 
-        cp = coarse_problem(problem, m)
+        cp = coarse_problem(problem, m)  # judged on the requirement as written
         kappa = problem.threshold
         for k in range(TIGHTEN_ROUNDS):
             on_knots = _exact(cp, sol_c.channels)
             if rho >= kappa or not on_knots >= kappa or deadline.solve_expired():
                 break
-            raised = cp.threshold + min(on_knots - rho + TIGHTEN_EXTRA, TIGHTEN_MAX)
+            raised = planned.threshold + min(on_knots - rho + TIGHTEN_EXTRA, TIGHTEN_MAX)
             self._say(problem, f"the knots have exact robustness {on_knots:+.4f}, the mission "
                       f"grid {rho:+.4f}: planning the knots again with κ = {raised:.4g}")
-            cp = replace(cp, threshold=raised)
+            planned = replace(planned, threshold=raised)
             try:
-                again, _ = run_chain(cp, [LibrarySeed(sol_c.channels, "knot plan", 0.0),
+                again, _ = run_chain(planned, [LibrarySeed(sol_c.channels, "knot plan", 0.0),
                                           CasadiNlp(self.quiet)])
             except deadline.TimeLimitReached:
                 deadline.caught()

@@ -22,32 +22,25 @@ wrong sample of an ``eventually``, it converges there, and no smoothing λ moves
   side of every obstacle, the sample of every ``eventually``, the branch of every ``or``)
   is solved by HiGHS in three phases (``_solve``): a path with ρ̂ ≥ κ, a shorter one from it
   (L1 acceleration penalty: LPs with the choices fixed, each followed by the best choices
-  on its path, ``Encoder.complete`` — a local search of ≈ 30 ms LPs that replaced 1.5 s of
-  HiGHS on the MILP with its choices free, and found paths as short), then the LP with that
-  path's binaries fixed maximising ρ̂ minus the penalty, and from it the MILP with its
-  choices free for at most ``FREE_S`` (a better class, if HiGHS finds one), under
-  ``TIME_LIMIT_S`` in all.  ``MilpPathSeed`` runs that last MILP in a forked child beside
-  the kinematic smoothing of the polished path (a handover's never closes in ``FREE_S``
-  and keeps its class: 0.5 s off the critical path); the smoothing runs again only from a
-  better class.  The smoothing's NLP (``kinematic.GuessNlp``, the choice rows as its
+  on its path, ``Encoder.complete``), the LP with that path's binaries fixed maximising ρ̂
+  minus the penalty, and from it the MILP with its choices free for at most ``FREE_S`` (a
+  better class, if HiGHS finds one), under ``TIME_LIMIT_S`` in all — that last MILP in a
+  forked child beside the kinematic smoothing of the polished path, which runs again only
+  from a better class.  The smoothing's NLP (``kinematic.GuessNlp``, the choice rows as its
   parameters) is built in a thread while HiGHS runs (``kinematic.build_in_thread``).
 
 The seed path is exact between seed samples (piecewise-constant acceleration), so it is
-sampled onto the mission grid; the kinematic NLP (``schedule.kinematic_guess(problem,
-path=…)``) smooths it at the mission step with the seed's choices fixed, and its path is
-what the NLP's guess (``schedule.full_guess``) lifts to the vehicle's states and inputs.
-The NLP's first stage (the energy stage with an energy objective, ``schedule.ENERGY_FIRST``,
-else the robustness stage) then keeps the same choices (``choices.choose`` on the lifted
-guess: the branch with the largest margin per sample, the best sample per window), and only
-if that misses κ does the robustness schedule solve the formula as written.
+sampled onto the mission grid, smoothed there by the kinematic NLP with the seed's choices
+fixed (``schedule.kinematic_guess(problem, path=…)``) and lifted to the vehicle's states and
+inputs (``schedule.full_guess``); the NLP's first stage keeps the same choices
+(``choices.choose``), and only if that misses κ does the schedule solve the formula as written.
 
 When the MILP cannot be built (a position predicate that is not affine), finds no path in
 its time limit, or the mission has no predicate on positions, the seed is the kinematic
-guess as before; ``Solution.solver`` says which ran.  ``next_seed`` gives the next-best
-discrete choice (a no-good cut on this seed's binaries for the conjuncts a plan violates),
-which ``pipeline`` tries when the plan from this seed misses κ.  The seed proves nothing: it
-is neither a relaxation (inner bounds, coarse samples) nor the verdict (the exact monitor
-judges the NLP's plan).  Its ρ̂ below κ is a hint only; the proof is ``milp.conflict``'s.
+guess; ``Solution.solver`` says which ran.  ``next_seed`` gives the next-best discrete
+choice (a no-good cut on this seed's binaries for the conjuncts a plan violates), which
+``pipeline`` tries when the plan from this seed misses κ.  The seed proves nothing (inner
+bounds, coarse samples; the exact monitor judges the plan); the proof is ``milp.conflict``'s.
 """
 
 from __future__ import annotations
@@ -354,10 +347,12 @@ class MilpPathSeed(KinematicGuess):
     name = "milp seed"
     NEXT_LABEL = "the next-best MILP seed (its choices for the violated specs excluded)"
 
-    def __init__(self, quiet: bool = True, exclude: tuple = ()):
-        self.quiet = quiet
+    def __init__(self, quiet: bool = True, exclude: tuple = (), smooth: bool = True,
+                 given: tuple | None = None):
+        self.quiet, self.smooth, self.given = quiet, smooth, given
         self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
         self.choices = None  # this seed's, after ``invert``
+        # smooth=False: the MILP's path as found; given: (paths, record) found before (no MILP)
 
     def solve(self, lowered, problem):
         from stlc.backends.nlp import apart
@@ -365,8 +360,12 @@ class MilpPathSeed(KinematicGuess):
 
         t0 = time.perf_counter()
         builds = []  # the kinematic NLP, built in a thread while HiGHS runs
-        paths, rec, resume = plan(problem, exclude=self.exclude, defer_free=True,
-                                  on_solve=lambda: builds.append(build_in_thread(problem)))
+        if self.given is not None:
+            paths, rec, resume = self.given[0], dict(self.given[1]), None
+        else:
+            paths, rec, resume = plan(
+                problem, exclude=self.exclude, defer_free=True,
+                on_solve=lambda: self.smooth and builds.append(build_in_thread(problem)))
         proof = None
         if rec.get("phases") and (rec["phases"][0][1] == "Infeasible"
                                   or rec.get("bound", np.inf) < problem.threshold):
@@ -380,6 +379,8 @@ class MilpPathSeed(KinematicGuess):
         if proof is None:  # the kinematic NLP, from the seed path when there is one,
             # while the MILP with its choices free looks for a better class apart (rarely
             # found on a handover: then the kinematic NLP runs again from that class)
+            if not self.smooth and paths is not None:
+                return (paths, rec, None), time.perf_counter() - t0
             t1 = time.perf_counter()
             free = apart.start(resume) if resume is not None else None
 
