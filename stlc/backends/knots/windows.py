@@ -26,6 +26,7 @@ import numpy as np
 
 from stlc.analysis import monitor
 from stlc.semantics import ir
+from stlc.semantics.timegrid import steps_ceil, steps_floor
 
 
 def fix_windows(f: ir.Formula, dt: float, channels: Mapping[str, np.ndarray],
@@ -50,9 +51,9 @@ class _Fixer:
             return None
 
     def window(self, k: int, lo: float, hi: float) -> tuple[int, int]:
-        a = k + int(round(lo / self.dt))
-        b = min(k + int(round(hi / self.dt)) if np.isfinite(hi) else self.n - 1, self.n - 1)
-        return a, b
+        """The samples of ``[lo, hi]`` from sample k, as the exact monitor counts them."""
+        b = steps_floor(hi, self.dt) if np.isfinite(hi) else self.n
+        return k + steps_ceil(lo, self.dt), min(k + b, self.n - 1)
 
     def at(self, f: ir.Formula, k: int) -> ir.Formula:
         """``f`` needed at sample ``k`` only."""
