@@ -99,5 +99,6 @@ def stage(prob: NlpProblem, inv: InverseData, problem, result: RawResult, solve,
            + (f"κ = {kappa:g}" if st.exact < kappa else
               f"{words.number(least)} (ρ = {words.number(rho)} less {RHO_TOL:g}·(ρ − κ))"))
     result.notes.append(f"the smoothed plan (least input change, `{LABEL}` stage) was not "
-                        f"kept: {why}; the plan is the schedule's, with its bang-bang inputs "
-                        f"(input change {input_change(prob, inv, w):.3g})")
+                        f"kept: {why}; the plan is the schedule's (input change "
+                        f"{input_change(prob, inv, w):.3g}, smoothed "
+                        f"{input_change(prob, inv, w_s):.3g})")

@@ -1,0 +1,150 @@
+"""The NLP chain's smoothing stage (``stlc.backends.nlp.smoothing``).
+
+A point mass's NLP plan is bang-bang (no energy term); the stage re-solves the NLP for the
+least input change at the plan's robustness.  Checked against values computed here, not by
+the stage: the exact monitor on the plan as written (trajectory.csv, read back), the
+squared acceleration change Σ(Δa)² of the written inputs with and without the stage
+(``smoothing.SMOOTH``), and a multirotor mission's NLP and plan, which the stage must not
+touch.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stlc.analysis import monitor
+from stlc.analysis.trace import read_trace
+from stlc.backends.nlp import model as casadi_nlp
+from stlc.backends.nlp import smoothing
+from stlc.output.solution import trajectory_csv
+from stlc.pipeline import load, plan
+from stlc.planning.problem import from_mission
+from stlc.semantics import nnf
+
+ROOT = Path(__file__).resolve().parents[1]
+TOWER = ROOT / "specs" / "tower_inspection.stl"  # a point mass, round tower: the NLP chain
+
+
+def _written(sol, tmp_path: Path, name: str):
+    """The plan as ``stlc compile`` writes it, read back."""
+    path = tmp_path / f"{name}.csv"
+    path.write_text(trajectory_csv(sol), encoding="utf-8")
+    return read_trace(path)
+
+
+def _acc_change(trace, vehicle: str) -> float:
+    """Σ_k ‖a_{k+1} − a_k‖² of the written plan (the last row repeats the last input)."""
+    A = np.array([trace.channels[f"{vehicle}.acc.{a}"] for a in "xyz"])[:, :-1]
+    return float(np.sum(np.diff(A, axis=1) ** 2))
+
+
+def _objective_reads_jerk_weight(prob) -> bool:
+    """Whether the built NLP's objective changes with its last parameter (the jerk weight)
+    at a random point (λ = 10, every other weight 1)."""
+    f = prob.solver.get_function("nlp_f")
+    w = np.random.default_rng(0).uniform(-1.0, 1.0, size=prob.n_vars)
+    p = np.ones(f.size1_in(1))
+    p[0] = 10.0
+    q = p.copy()
+    q[-1] = 0.0
+    return float(f(w, p)) != float(f(w, q))
+
+
+@pytest.fixture(scope="module")
+def tower():
+    loaded = load(str(TOWER))
+    program = loaded.program
+    mission = program.missions["inspect"]
+    _, smooth_sol = plan(program, mission)
+    old = smoothing.SMOOTH
+    smoothing.SMOOTH = False
+    try:
+        _, plain_sol = plan(program, mission)
+    finally:
+        smoothing.SMOOTH = old
+    return program, mission, smooth_sol, plain_sol
+
+
+def test_the_smoothed_plan_meets_kappa_by_the_monitor(tower, tmp_path):
+    program, mission, sol, _ = tower
+    assert sol.solver["chain"]["name"] == "nlp"
+    labels = [s["label"] for s in sol.solver["stages"]]
+    assert labels[-1] == smoothing.LABEL
+    assert not any("smoothed plan" in n for n in sol.notes)  # kept
+    trace = _written(sol, tmp_path, "smooth")
+    f = nnf.normalize(mission.requirement)
+    rho = monitor.robustness(f, trace.dt, trace.channels, program.params)
+    assert rho >= mission.threshold
+    assert rho == pytest.approx(sol.robustness_exact, abs=1e-9)
+    assert sol.status == "satisfied"
+
+
+def test_the_smoothed_plan_changes_its_inputs_less(tower, tmp_path):
+    program, mission, sol, plain = tower
+    assert smoothing.LABEL not in [s["label"] for s in plain.solver["stages"]]
+    smooth_j = _acc_change(_written(sol, tmp_path, "smooth"), "uav1")
+    plain_j = _acc_change(_written(plain, tmp_path, "plain"), "uav1")
+    assert smooth_j < 0.5 * plain_j  # measured 10.4 against 43.0
+    # the robustness given away is within the stage's tolerance
+    rho, rho0 = sol.robustness_exact, plain.robustness_exact
+    assert rho >= rho0 - smoothing.RHO_TOL * (rho0 - mission.threshold) - 1e-9
+    stage = sol.solver["stages"][-1]
+    assert stage["iterations"] > 0 and stage["feasible"]
+
+
+def test_a_multirotor_nlp_has_no_jerk_term_and_its_plan_is_untouched():
+    program = load(str(ROOT / "tests" / "missions" / "hexa_climb.stl")).program
+    mission = program.missions["climb"]
+    problem = from_mission(program, mission)
+    prob, inv = casadi_nlp.build(problem)
+    assert not prob.smoothable
+    # the objective does not read the jerk weight (the last parameter)
+    assert _objective_reads_jerk_weight(prob) is False
+    _, on = plan(program, mission)
+    old = smoothing.SMOOTH
+    smoothing.SMOOTH = False
+    try:
+        _, off = plan(program, mission)
+    finally:
+        smoothing.SMOOTH = old
+    assert smoothing.LABEL not in [s["label"] for s in on.solver["stages"]]
+    assert on.robustness_exact == off.robustness_exact and on.energy == off.energy
+    for k, v in off.channels.items():
+        assert np.array_equal(np.asarray(on.channels[k]), np.asarray(v)), k
+
+
+def test_a_point_mass_nlp_reads_the_jerk_weight():
+    program = load(str(TOWER)).program
+    prob, _ = casadi_nlp.build(from_mission(program, program.missions["inspect"]))
+    assert prob.smoothable and _objective_reads_jerk_weight(prob)
+
+
+def test_a_smoothed_plan_that_gives_away_too_much_is_not_kept():
+    # the slalom's planner form and its exact robustness are bound by different predicates:
+    # at ρ̃ ≥ ρ̃* the smoothed plan's exact ρ falls from ≈ 0.50 to ≈ 0.20
+    program = load(str(ROOT / "tests" / "missions" / "slalom_poles.stl")).program
+    mission = program.missions["slalom"]
+    _, sol = plan(program, mission)
+    labels = [s["label"] for s in sol.solver["stages"]]
+    assert labels[-1] == smoothing.LABEL
+    smooth_stage = sol.solver["stages"][-1]
+    plan_stage = sol.solver["stages"][-2]
+    assert smooth_stage["exact"] < plan_stage["exact"] - smoothing.RHO_TOL * (
+        plan_stage["exact"] - mission.threshold)
+    assert any("smoothed plan" in n and "not kept" in n for n in sol.notes)
+    assert sol.robustness_exact == pytest.approx(plan_stage["exact"], abs=1e-12)
+
+
+def test_no_smoothing_stage_once_the_time_is_spent(tower, monkeypatch):
+    program, mission, _, _ = tower
+    monkeypatch.setattr(smoothing.deadline, "solve_expired", lambda: True)
+    result = casadi_nlp.RawResult(np.zeros(1), 10.0)
+    called = []
+    problem = from_mission(program, mission)
+    prob, inv = casadi_nlp.build(problem)
+    smoothing.stage(prob, inv, problem, result, lambda *a, **k: called.append(a),
+                    lambda *a, **k: called.append(a))
+    assert not called and not result.notes
