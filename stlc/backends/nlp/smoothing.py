@@ -77,28 +77,33 @@ def stage(prob: NlpProblem, inv: InverseData, problem, result: RawResult, solve,
     rho = exact_robustness(inv.formula, inv, w, params)
     if not rho >= kappa:
         return  # nothing to keep: the schedule's plan misses κ
+    least = rho - RHO_TOL * (rho - kappa)
     if inv.choice_nodes:
         inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
                                            params, inv.grid.n, inv.planned, inv.grid.dt)
+    # the solve keeps its last iterate if it has ρ ≥ least, else the verified iterate
+    # with ρ ≥ least and the least objective (``model.Progress``, mode "objective")
+    kept, prob.progress.kappa = prob.progress.kappa, least
     try:
         w0 = fill_aux(prob, inv, w, params, lam)
         planner = float(prob.lowered.init_values(lowering_channels(w0, inv), params, lam)[1])
         floor = planner - GIVE * max(planner - PLAN_MARGIN, 0.0)
         w_s, stats, f_, dt_ = solve(prob, w0, [lam, 0.0, 0.0, 0.0], floor, LABEL, ITER,
                                     most_robust=False, jerk=1.0)
+        st = record(LABEL, lam, w_s, stats, f_, dt_)
     finally:
+        prob.progress.kappa = kept
         if inv.choice_nodes:
             inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n)
-    st = record(LABEL, lam, w_s, stats, f_, dt_)
-    least = rho - RHO_TOL * (rho - kappa)
-    if st.feasible and st.exact >= kappa and st.exact >= least:
+    j0, j1 = input_change(prob, inv, w), input_change(prob, inv, w_s)
+    if st.feasible and st.exact >= kappa and st.exact >= least and j1 < j0:
         result.w = w_s
         return
     why = ("it does not meet the dynamics" if not st.feasible else
            f"its exact ρ {words.number(st.exact)} is below "
            + (f"κ = {kappa:g}" if st.exact < kappa else
-              f"{words.number(least)} (ρ = {words.number(rho)} less {RHO_TOL:g}·(ρ − κ))"))
+              f"{words.number(least)} (ρ = {words.number(rho)} less {RHO_TOL:g}·(ρ − κ))")
+           if st.exact < least else "no iterate that keeps ρ changes the inputs less")
     result.notes.append(f"the smoothed plan (least input change, `{LABEL}` stage) was not "
-                        f"kept: {why}; the plan is the schedule's (input change "
-                        f"{input_change(prob, inv, w):.3g}, smoothed "
-                        f"{input_change(prob, inv, w_s):.3g})")
+                        f"kept: {why}; the plan is the schedule's (input change {j0:.3g}, "
+                        f"smoothed {j1:.3g})")
