@@ -13,15 +13,29 @@ the plan, with the plan's branch of every disjunction and sample of every window
 
 (O(1): one full switch of one axis adds 4/(N − 1)) subject to ρ̃ ≥ ρ̃* − δ on the κ row
 (the mechanism the constrained energy stage uses for ρ̃ ≥ ``PLAN_MARGIN``), with
-δ = ``GIVE``·(ρ̃* − PLAN_MARGIN): the bound stays above PLAN_MARGIN, so ρ ≥ κ still holds
-by construction, and the robustness given away is a small share of the margin.  Without
-any give the start sits on the bound, where an interior-point method starts badly.
+δ = ``GIVES[0]``·max(ρ̃* − PLAN_MARGIN, 0): a bound above PLAN_MARGIN keeps ρ ≥ κ by
+construction, and the robustness given away is a small share of the margin (without any
+give the start sits on the bound, where an interior-point method starts badly).  A plan
+with ρ̃* below PLAN_MARGIN (its ρ ≥ κ is the exact monitor's, at a λ whose smoothing gap
+exceeds the margins) keeps ρ̃ ≥ ρ̃*: the monitor's check below is then what holds κ.
 
-The smoothed plan replaces the schedule's only if the exact monitor says it meets κ and its
-exact ρ is at least ρ* − ``RHO_TOL``·(ρ* − κ); otherwise the schedule's plan stays and the
-solution's notes say why.  The stage runs within the run's time limit (``stlc.deadline``:
-none starts once the solvers' share is spent, and IPOPT's callback stops one that runs
-past it) and at most ``ITER`` iterations.  ``SMOOTH`` switches it off.
+The planner form's margins are scaled per predicate, so ρ̃ ≥ ρ̃* − δ does not hold the exact
+ρ: a plan whose ρ̃* is pinned by one scaled margin (a start near a wall of a large workspace)
+may give away exact robustness elsewhere.  So of the solve's verified iterates the one kept
+is the last if its exact ρ is at least ρ* − ``RHO_TOL``·(ρ* − κ), else the one with the
+least objective among those that are (``model.Progress``, mode "objective"); it replaces
+the schedule's plan only if it meets κ, keeps that ρ and changes the inputs less —
+otherwise, if it fell below that ρ, the stage solves once more with the smaller δ of
+``GIVES[1]`` (``tests/missions/survey_sphere.stl``, ρ* = 0.346: δ 0.05 → 0.02 gives ρ
+0.329 → 0.337 and Σ|Δa| 46 → 55 m/s², against 73 unsmoothed), and if that fails too the schedule's plan
+stays and the solution's notes say why.  A plan without input
+changes (J ≤ ``STILL``) gets no stage.  The stage runs within the run's time limit
+(``stlc.deadline``: none starts once the solvers' share is spent, and IPOPT's callback
+stops one that runs past it) and at most ``ITER`` iterations.  ``SMOOTH`` switches it off.
+
+Measured (2-core machine, load ≈ 2): ``specs/tower_inspection.stl`` 17 iterations, 0.03 s,
+Σ|Δa| 32.1 → 14.5 m/s², ρ 0.399 → 0.397; a 60 s point-mass patrol with a speed bound
+(the ``knots`` chain, 121 knots) 36 iterations, 2 s, max |Δa| 0.21 → 0.06 m/s².
 """
 
 from __future__ import annotations
@@ -43,10 +57,13 @@ from stlc.backends.nlp.model import (
 from stlc.planning import words
 
 SMOOTH = True  #: smooth the plans of NLPs without energy or forward-speed terms
-GIVE = 0.05  #: share of ρ̃* − PLAN_MARGIN the smoothing may give away on the κ row
-RHO_TOL = 0.1  #: the smoothed plan's exact ρ may be this share of ρ* − κ below ρ*
+#: shares of ρ̃* − PLAN_MARGIN the smoothing may give away on the κ row: the second only
+#: if the first one's plan gives away too much exact robustness
+GIVES = (0.05, 0.02)
+RHO_TOL = 0.05  #: the smoothed plan's exact ρ may be this share of ρ* − κ below ρ*
 ITER = 100  #: iteration limit of the stage
 LABEL = "smooth"
+STILL = 1e-9  #: a plan whose input change J is at most this is left as it is
 
 
 def input_change(prob: NlpProblem, inv: InverseData, w: np.ndarray) -> float:
@@ -75,8 +92,9 @@ def stage(prob: NlpProblem, inv: InverseData, problem, result: RawResult, solve,
     params, kappa, lam = problem.params, problem.threshold, result.lam
     w = result.w
     rho = exact_robustness(inv.formula, inv, w, params)
-    if not rho >= kappa:
-        return  # nothing to keep: the schedule's plan misses κ
+    j0 = input_change(prob, inv, w)
+    if not rho >= kappa or j0 <= STILL:
+        return  # nothing to keep (the plan misses κ) or nothing to smooth
     least = rho - RHO_TOL * (rho - kappa)
     if inv.choice_nodes:
         inv.choice_values = choices.choose(inv.choice_nodes, trajectory_channels(w, inv),
@@ -87,18 +105,24 @@ def stage(prob: NlpProblem, inv: InverseData, problem, result: RawResult, solve,
     try:
         w0 = fill_aux(prob, inv, w, params, lam)
         planner = float(prob.lowered.init_values(lowering_channels(w0, inv), params, lam)[1])
-        floor = planner - GIVE * max(planner - PLAN_MARGIN, 0.0)
-        w_s, stats, f_, dt_ = solve(prob, w0, [lam, 0.0, 0.0, 0.0], floor, LABEL, ITER,
-                                    most_robust=False, jerk=1.0)
-        st = record(LABEL, lam, w_s, stats, f_, dt_)
+        for i, give in enumerate(GIVES):  # a tighter bound only if the looser one fails
+            if i and deadline.solve_expired():
+                break
+            label = LABEL if i == 0 else f"{LABEL} (δ × {give / GIVES[0]:g})"
+            floor = planner - give * max(planner - PLAN_MARGIN, 0.0)
+            w_s, stats, f_, dt_ = solve(prob, w0, [lam, 0.0, 0.0, 0.0], floor, label, ITER,
+                                        most_robust=False, jerk=1.0)
+            st = record(label, lam, w_s, stats, f_, dt_)
+            j1 = input_change(prob, inv, w_s)
+            if st.feasible and st.exact >= kappa and st.exact >= least and j1 < j0:
+                result.w = w_s
+                return
+            if not st.exact < least:
+                break  # it kept ρ but not smoother: a tighter bound would not be either
     finally:
         prob.progress.kappa = kept
         if inv.choice_nodes:
             inv.choice_values = choices.written(inv.choice_nodes, inv.grid.n)
-    j0, j1 = input_change(prob, inv, w), input_change(prob, inv, w_s)
-    if st.feasible and st.exact >= kappa and st.exact >= least and j1 < j0:
-        result.w = w_s
-        return
     why = ("it does not meet the dynamics" if not st.feasible else
            f"its exact ρ {words.number(st.exact)} is below "
            + (f"κ = {kappa:g}" if st.exact < kappa else
