@@ -330,8 +330,9 @@ def test_bench_compile_smoke(tmp_path, capsys):
                 "total s", "iterations", "exact ρ", "smooth ρ", "energy J", "/ paper 660 s"):
         assert col in head, col
     rows = [line.split() for line in lines if line.startswith("east ")]
-    # the summary, one row per solve stage (here: one robustness stage), the IPOPT split
-    assert len(rows) == 3
+    # the summary, one row per solve stage (here: one robustness stage, then the point
+    # mass's smoothing stage, ``nlp.smoothing``), the IPOPT split
+    assert len(rows) == 4 and rows[2][1] == "smooth"
     stage = rows[1]
     assert stage[1].startswith("robustness") and stage[5] in ("yes", "no") and int(stage[3]) > 0
     assert int(stage[6]) >= 0  # iterations with Hessian regularisation

@@ -200,6 +200,7 @@ class CasadiNlp(Backend):
             if not st.converged:
                 sol.notes.append(f"stage `{st.label}` (λ = {st.lam:g}) did not converge "
                                  f"({st.status} after {st.iterations} iterations)")
+        sol.notes.extend(raw.notes)
         for label, wc in raw.comparisons.items():
             chc = channels_with_derived(inv, wc)
             ec, pc = energy_profile(inv, chc)

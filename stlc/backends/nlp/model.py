@@ -9,7 +9,8 @@ objective, integrator, end state, iteration limit, start states), never the miss
 * constraints: the discrete dynamics ``x_{k+1} = F(x_k, u_k)``, the fixed start state (as
   variable bounds), state/input bounds (rotor forces, per-axis velocity/acceleration), the
   lifted robustness constraints, and ``ρ̃ ≥ κ`` (switched on per solve through its lower bound);
-* objective: ``w_E·E/n + w_F·F − w_ρ·ρ̃ + r·Σ‖u‖²`` with the weights and the smoothing λ as
+* objective: ``w_E·E/n + w_F·F − w_ρ·ρ̃ + r·Σ‖u‖²`` (+ ``w_J·J``, the input change, for a
+  team without energy or forward-speed terms: ``smoothing``) with the weights and λ as
   NLP *parameters*, so that a λ schedule and the energy stage re-solve the same NLP with warm
   starts instead of rebuilding it (a small input regularisation r keeps the optimum unique).
   E/n is the mean per-sample energy (1 at hover), O(1) like ρ̃: the summed E (≈ 170) made
@@ -126,6 +127,8 @@ class NlpProblem:
     lowered: LoweredRobustness
     build_s: float
     inv: InverseData | None = None  # set by build: the choice parameters live there
+    #: the objective has the input-change term w_jerk·Σ‖Δu/u_max‖²/(N−1) (``smoothing``)
+    smoothable: bool = False
 
 
 @dataclass
@@ -174,6 +177,7 @@ class RawResult:
     lam: float
     stages: list[Stage] = field(default_factory=list)
     comparisons: dict[str, np.ndarray] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)  # for the solution's notes
 
 
 # ---------------------------------------------------------------- building
@@ -206,7 +210,8 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
         off += nx * n + nu * N
     n_traj = off
     wt = ca.SX.sym("w", n_traj)
-    lam, w_rob, w_en, w_fwd = (ca.SX.sym(s) for s in ("lam", "w_rob", "w_en", "w_fwd"))
+    lam, w_rob, w_en, w_fwd, w_jerk = (ca.SX.sym(s) for s in ("lam", "w_rob", "w_en", "w_fwd",
+                                                                "w_jerk"))
     p = ca.vertcat(lam, w_rob, w_en, w_fwd)
 
     formula = problem.requirement  # in negation normal form
@@ -218,7 +223,7 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
         extra.append(ca.SX.sym(name, 1 if name == choices.MIX else n))
         chans[name] = ca.repmat(extra[-1], 1, n) if name == choices.MIX else extra[-1].T
     psyms = {k: ca.SX.sym(k) for k in sorted(ir.params(fixed))}  # e.g. a human's pose
-    p = ca.vertcat(p, *extra, *psyms.values())
+    p = ca.vertcat(p, *extra, *psyms.values(), w_jerk)  # w_jerk: ``smoothing``
     lowered = lower_robustness(fixed, grid, chans, {**program.params, **psyms}, lam,
                                method=problem.smoothing.method)
     aux = lowered.aux
@@ -226,7 +231,8 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     g_list, lbg, ubg = [], [], []
     lbx = np.full(w.numel(), -np.inf)
     ubx = np.full(w.numel(), np.inf)
-    energy, fwd, reg = ca.SX(0), ca.SX(0), ca.SX(0)
+    energy, fwd, reg, jerk = ca.SX(0), ca.SX(0), ca.SX(0), ca.SX(0)
+    smoothable = True  # no energy or forward-speed term: the jerk term (``smoothing``)
     for L in layouts:
         v = L.vehicle
         vm = vehicles.model_of(v)
@@ -247,12 +253,17 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
         lbx[start:start + L.nx] = x0
         ubx[start:start + L.nx] = x0
         reg += ca.sumsqr(U) / N
+        scale = np.maximum(np.abs(b.u_lo), np.abs(b.u_hi))  # Δu in units of its bound
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+        jerk += ca.sumsqr((U[:, 1:] - U[:, :-1]) / ca.DM(scale)) / max(N - 1, 1)
         xs = ca.SX.sym("x", L.nx)
         e_x = vm.energy_terms(v, xs, grid.dt)  # None: the model has no energy
         if e_x is not None:
             e_fn = ca.Function("e", [xs], [e_x]).map(n)
             energy += ca.sum2(e_fn(X)) / n  # mean per sample: O(1), like ρ̃
+            smoothable = False
         elif problem.objective.forward_speed:
+            smoothable = False
             vstar = dynamics.forward_speed_target(v, problem.objective.forward_speed)
             fwd += ca.sum2(ca.reshape(dynamics.forward_speed_terms(X, vstar), 1, -1))
     n_dyn = sum(x.numel() for x in g_list)
@@ -268,6 +279,8 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
     ubg.append(np.array([np.inf]))
     g = ca.vertcat(*g_list)
     obj = w_en * energy + w_fwd * fwd - w_rob * lowered.root + INPUT_REG * reg + fly
+    if smoothable:
+        obj += w_jerk * jerk
     opts = dict(IPOPT_DEFAULTS)
     opts.update(settings.ipopt_options())  # a developer's extra options (``STLC_IPOPT``)
     opts["ipopt.max_iter"] = int(problem.max_iter)
@@ -285,6 +298,7 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
                       nodes, choices.written(nodes, n) if nodes else {},
                       {k: program.params[k] for k in psyms})
     prob.inv = inv
+    prob.smoothable = smoothable
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
         if n_dyn and np.max(np.abs(gv[:n_dyn])) > FEASIBLE_DEFECT:

@@ -15,7 +15,8 @@ IPOPT's own convergence test (or the iteration limit); every dynamically feasibl
 is checked by the exact monitor and the best one kept.  Then, if the objective has energy
 terms, one more solve minimises ``w·E/n − ρ̃(P_κ)`` at the smallest λ where the robust plan
 has ρ̃(P_κ) ≥ ``PLAN_MARGIN``; only if its plan misses κ, a second one adds the constraint
-ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (paper A eq. 6).
+ρ̃(P_κ) ≥ ``PLAN_MARGIN`` (paper A eq. 6).  Without energy or forward-speed terms (a point
+mass), a last stage smooths the plan's inputs at the robustness it has (``smoothing``).
 
 **Energy first.**  With an energy (or forward-speed) objective, that energy solve runs first,
 straight from the seed's guess with the seed's choices, at the smallest λ where the guess
@@ -38,7 +39,7 @@ import time
 import numpy as np
 
 from stlc import deadline, interrupt, vehicles
-from stlc.backends.nlp import choices
+from stlc.backends.nlp import choices, smoothing
 from stlc.planning import words
 from stlc.backends.base import SolverStatus
 from stlc.backends.nlp.model import (
@@ -108,15 +109,16 @@ def param_values(inv: InverseData) -> list[float]:
 
 
 def _solve(prob: NlpProblem, w0: np.ndarray, p: list[float], kappa: float | None,
-           label: str, limit: int, patience: int = 10**9, most_robust: bool = True
-           ) -> tuple[np.ndarray, dict, float, float]:
+           label: str, limit: int, patience: int = 10**9, most_robust: bool = True,
+           jerk: float = 0.0) -> tuple[np.ndarray, dict, float, float]:
     """One IPOPT solve.  With ``most_robust`` the result is the dynamically feasible iterate
     with the best exact robustness (IPOPT's last iterate when that is as good); otherwise
-    the last iterate if it is feasible and satisfying, else the best one."""
+    the last iterate if it is feasible and satisfying, else the best one.  ``p``: (λ, w_ρ,
+    w_E, w_F); ``jerk``: the input-change weight (``smoothing``), the last parameter."""
     lbg = prob.lbg.copy()
     if kappa is not None:
         lbg[prob.kappa_row] = kappa
-    p = list(p) + choice_params(prob.inv) + param_values(prob.inv)
+    p = list(p) + choice_params(prob.inv) + param_values(prob.inv) + [jerk]
     progress = prob.progress
     progress.p = np.array(p)
     progress.reset()
@@ -218,6 +220,7 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         w_e, lam_e, met = done
         if met:
             result = RawResult(w_e, lam_e, stages)
+            smoothing.stage(prob, inv, problem, result, _solve, record)
             if not warm:  # (a sweep's instance has no `compare` plans)
                 _compare(prob, inv, problem, result, w_e, lam_e, record, guess=w0,
                          ahead=ahead()[0] if ahead is not None else None)
@@ -271,6 +274,8 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         w_e, st = _energy(prob, inv, best, params, obj, kappa, lam_e, record)
         if st.meets(kappa):
             result.w, result.lam = w_e, lam_e
+    if best_st.meets(kappa):
+        smoothing.stage(prob, inv, problem, result, _solve, record)
     _compare(prob, inv, problem, result, robust_w, lam, record, robust=robust_w)
     return result
 
