@@ -155,7 +155,8 @@ def test_a_start_inside_a_no_fly_box_is_proved_impossible_before_the_nlp(tmp_pat
 
 
 def test_the_next_seed_leaves_out_the_choices_of_the_violated_spec(tmp_path):
-    from stlc.backends.milp.seed import MilpPathSeed, conjuncts
+    from stlc.backends.milp.path_seed import MilpPathSeed
+    from stlc.backends.milp.seed import conjuncts
     from stlc.planning.fallback import hover_solution
 
     program, mission = _problem(TRAP, tmp_path, "trap")
@@ -237,3 +238,47 @@ def test_the_kinematic_nlp_built_in_a_thread_beside_the_milp_gives_the_same_gues
             np.testing.assert_array_equal(a, b)
     with pytest.raises(ValueError):
         nlp.solve(None)  # a seeded NLP keeps a path's choices: it needs the path
+
+
+# a straight 5 m run under `speed <= 1 m/s`: the seed's box inside the speed ball allows
+# 1/√3 ≈ 0.58 m/s per axis, 4.3 m in 7.5 s — no path reaches the goal (x ≥ 4.55 for
+# κ = 0.05); the box around the ball allows 1 m/s per axis, and the plan flies x at 0.9 m/s
+RUN = """\
+vehicle p : point_mass {
+  vel_max = (2, 2, 2) m/s
+  acc_max = (2, 2, 2) m/s^2
+  start { pos = (0, 0, 1) m }
+}
+scenario {
+  workspace = box((-1, -2, 0), (7, 2, 2)) m
+  target goal = box((4.5, -0.5, 0.5), (5.5, 0.5, 1.5)) m
+}
+mission run {
+  vehicles = [p]
+  horizon = 8 s
+  step = 0.25 s
+  threshold = 0.05
+  spec safe = always[0, 8] (p.pos in workspace and p.speed <= 1 m/s)
+  spec reach = eventually[0, 7.5] (p.pos in goal)
+  require safe and reach
+  maximize robustness
+}
+"""
+
+
+def test_no_path_within_the_inner_bounds_is_looked_for_with_them_relaxed(tmp_path):
+    program, mission = _problem(RUN, tmp_path, "run")
+    problem = from_mission(program, mission)
+    paths, rec = milp_seed.plan(problem)
+    assert paths is None and rec["status"] == "Infeasible"
+    loose, loose_rec = milp_seed.plan(problem, relaxed=True)
+    assert loose is not None and loose_rec["relaxed"] == milp_seed.RELAX
+    assert np.max(np.abs(loose["p"][1])) > 1 / np.sqrt(3)  # faster than the inner box
+    _, sol = pipeline.plan(program, mission, backend="nlp")
+    seed = sol.solver["chain"]["stages"][0]["seed"]
+    assert seed["relaxed"] == milp_seed.RELAX and seed["inner_phases"][0][1] == "Infeasible"
+    assert "proof_s" not in seed  # a path was found: nothing to prove
+    assert sol.status == "satisfied"
+    ch = {k: np.asarray(v) for k, v in sol.channels.items()}
+    assert monitor.robustness(problem.requirement, problem.grid.dt, ch,
+                              problem.params) >= problem.threshold

@@ -15,7 +15,7 @@ def registry() -> dict[str, type]:
     from stlc.backends.nlp.backend import CasadiNlp, KinematicGuess
     from stlc.backends.knots.backend import KnotNlp
     from stlc.backends.milp.backend import ExactMilp
-    from stlc.backends.milp.seed import MilpPathSeed
+    from stlc.backends.milp.path_seed import MilpPathSeed
     from stlc.backends.milp.start import CoarseStart
     from stlc.backends.replan.segment import SegmentBackend
     from stlc.backends.team.backend import MilpSeed, TeamRefine

@@ -146,7 +146,7 @@ class KnotNlp(Backend):
     def solve(self, lowered, problem: PlanningProblem):
         from stlc.backends.base import run_chain
         from stlc.backends.nlp.backend import CasadiNlp
-        from stlc.backends.milp.seed import MilpPathSeed
+        from stlc.backends.milp.path_seed import MilpPathSeed
         from stlc.backends.nlp.backend import seed_paths
 
         t0 = time.perf_counter()
@@ -193,7 +193,7 @@ class KnotNlp(Backend):
         """The ``nlp`` chain on the mission grid: MILP seed → full NLP."""
         from stlc.backends.base import run_chain
         from stlc.backends.nlp.backend import CasadiNlp
-        from stlc.backends.milp.seed import MilpPathSeed
+        from stlc.backends.milp.path_seed import MilpPathSeed
 
         return run_chain(problem, [MilpPathSeed(self.quiet), CasadiNlp(self.quiet)])
 

@@ -2,7 +2,7 @@
 
 The full NLP (``nlp.model``) is local: started on the wrong side of an obstacle, or at the
 wrong sample of an ``eventually``, it converges there, and no smoothing λ moves it across.
-``MilpPathSeed`` replaces the local kinematic guess of the ``nlp`` chain by a global one:
+``MilpPathSeed`` (``milp.path_seed``) replaces the local kinematic guess of the ``nlp`` chain by a global one:
 
 * every vehicle becomes a **double integrator** in its position and velocity, with the
   speed and acceleration bounds its model offers for a guess
@@ -52,10 +52,6 @@ import numpy as np
 
 from stlc import deadline, vehicles
 from stlc.planning import effort
-from stlc.backends.base import SolverStatus
-from stlc.backends.nlp.backend import KinematicGuess
-from stlc.backends.nlp.kinematic import build_in_thread
-from stlc.backends.milp.backend import HIGHS_STATUS_MAP
 from stlc.backends.milp.encode import NotLinear
 from stlc.backends.milp.rolling import feasible, samples
 from stlc.planning.coarse_grid import MAX_SAMPLES, MAX_STEP_S, refine, seed_factor  # noqa: F401
@@ -70,17 +66,19 @@ ROUNDS = 20  #: LPs of the shortening's local search, at most (≈ 30 ms each on
 ROUND_GAIN = 0.01  #: … while each one lowers the penalty by more than this fraction
 FREE_S = 0.5  #: then the MILP with its choices free, from the polished path, at most this long
 POLISH_S = 0.3  #: kept for the last LP (choices fixed)
+RELAX = 2.0  #: a relaxed seed's guess limits, times the vehicle's (``plan(relaxed=True)``)
 
 
-def seed_formula(problem, clearance: float = 0.0) -> ir.Formula:
+def seed_formula(problem, clearance: float = 0.0, relaxed: bool = False) -> ir.Formula:
     """The requirement with only its affine predicates on positions and velocities (every
     other predicate is ``true``); with ``clearance`` > 0 every face of a region the formula
     keeps the vehicle *out of* (a negated box face: ``not in``, the left side of
-    ``implies``) is pushed out by that much (``e ≥ 0`` becomes ``e − clearance ≥ 0``)."""
+    ``implies``) is pushed out by that much (``e ≥ 0`` becomes ``e − clearance ≥ 0``);
+    ``relaxed``: a speed limit's box around its ball instead of the box inside it."""
     from stlc.backends.milp.conflict import drop_nonlinear, kept_channels
 
     keep = kept_channels(problem)  # positions, velocities and fixed channels
-    inner = inner_norms(problem.requirement, problem.params)  # speed limits: inner boxes
+    inner = inner_norms(problem.requirement, problem.params, outer=relaxed)  # speed limits
     inner = polyhedral_formula(inner)  # distances: affine bounds below the exact ρ
     f = ir.restrict(drop_nonlinear(inner, problem.params, {}), lambda s: s in keep)
     if clearance <= 0:
@@ -115,13 +113,14 @@ class _Box:
     u_hi: np.ndarray
 
 
-def _lins(problem, h: float):
-    """Each vehicle as a double integrator on the seed grid (step h), inner bounds."""
+def _lins(problem, h: float, widen: float = 1.0):
+    """Each vehicle as a double integrator on the seed grid (step h), inner bounds (times
+    ``widen``)."""
     hold = problem.hold_end
 
     def lins(v):
         vm = vehicles.model_of(v)
-        vmax, amax = vm.kinematic_limits(v)
+        vmax, amax = (widen * np.asarray(b, float) for b in vm.kinematic_limits(v))
         sc = vm.state_channels(v)
         x0 = np.asarray(problem.start_state(v.name), float)
         pos, vel = sc[vm.pos_index()], sc[vm.vel_index()]
@@ -149,7 +148,8 @@ def conjuncts(f: ir.Formula) -> list[ir.Formula]:
 
 def plan(problem, time_limit: float | None = None, quiet: bool = True,
          exclude: tuple = (), rounds: int = ROUNDS, keep_clear: bool = False,
-         defer_free: bool = False, on_solve=None, best_blocks: bool = False):
+         defer_free: bool = False, on_solve=None, best_blocks: bool = False,
+         relaxed: bool = False):
     """The seed paths on the mission grid (per vehicle P 3×n, V 3×n, A 3×(n−1)) and a record
     of the MILP; the paths are None when the MILP found none (or cannot be built).
     ``exclude``: earlier choices to leave out, each {conjunct index: (binary columns, their
@@ -162,13 +162,17 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
     third value returned — None, or a function that runs it: ((paths, record) of a better
     class, or None when it finds none; its phases) — ``MilpPathSeed`` runs it beside the
     kinematic smoothing.  ``on_solve()`` is called once the MILP is built, just before HiGHS
-    runs (not for a mission the MILP cannot encode); ``best_blocks``: ``rolling.feasible``'s."""
+    runs (not for a mission the MILP cannot encode); ``best_blocks``: ``rolling.feasible``'s.
+    ``relaxed``: the vehicles' guess limits times ``RELAX`` and the box around every speed
+    ball (``path_seed``: when the inner bounds leave no path)."""
     from stlc.backends.milp.backend import build, invariant_box
 
     t0 = time.perf_counter()
-    f = seed_formula(problem)
+    f = seed_formula(problem, relaxed=relaxed)
     grid = problem.grid
     rec: dict = {"name": "HiGHS MILP seed (highspy)"}
+    if relaxed:
+        rec["relaxed"] = RELAX
     if has_distance(problem.requirement):
         rec["distances"] = DISTANCE_NOTE
     if isinstance(f, (ir.TrueF, ir.FalseF)):
@@ -178,11 +182,11 @@ def plan(problem, time_limit: float | None = None, quiet: bool = True,
     h = m * grid.dt
     if keep_clear and m > 1:
         rec["clearance"] = clearance(problem, h)
-        f = seed_formula(problem, rec["clearance"])
+        f = seed_formula(problem, rec["clearance"], relaxed)
     coarse = TimeGrid(h, grid.n_intervals // m)
     fixed = {k: np.asarray(v)[::m] for k, v in problem.fixed_channels.items()}
     cp = replace(problem, grid=coarse, fixed_channels=fixed, requirement=f, seed=None)
-    lins = _lins(problem, h)
+    lins = _lins(problem, h, RELAX if relaxed else 1.0)
     parts = {f"c{i}": c for i, c in enumerate(conjuncts(f))}
     try:
         low = build(cp, {**parts, "requirement": f}, lins, box=invariant_box(cp),
@@ -336,115 +340,3 @@ def _free(milp, top: int, cost: dict[int, float], kappa: float, res, limit: floa
         phases.append(("polish (choices fixed)", pol.highs_status, pol.wall_s))
         res = pol if pol.x is not None and pol.objective <= free.objective + 1e-9 else free
     return res, phases
-
-
-class MilpPathSeed(KinematicGuess):
-    """The ``nlp`` chain's seed: the MILP seed path, else the kinematic guess.  When no seed
-    path reaches κ, the sound relaxation of ``milp.conflict`` is asked for a proof at once
-    (before the NLP spends its λ schedule on an impossible mission); with a proof the
-    Solution is ``infeasible`` and ``run_chain`` stops there."""
-
-    name = "milp seed"
-    NEXT_LABEL = "the next-best MILP seed (its choices for the violated specs excluded)"
-
-    def __init__(self, quiet: bool = True, exclude: tuple = (), smooth: bool = True,
-                 given: tuple | None = None):
-        self.quiet, self.smooth, self.given = quiet, smooth, given
-        self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
-        self.choices = None  # this seed's, after ``invert``
-        # smooth=False: the MILP's path as found; given: (paths, record) found before (no MILP)
-
-    def solve(self, lowered, problem):
-        from stlc.backends.nlp import apart
-        from stlc.backends.nlp import schedule
-
-        t0 = time.perf_counter()
-        builds = []  # the kinematic NLP, built in a thread while HiGHS runs
-        if self.given is not None:
-            paths, rec, resume = self.given[0], dict(self.given[1]), None
-        else:
-            paths, rec, resume = plan(
-                problem, exclude=self.exclude, defer_free=True,
-                on_solve=lambda: self.smooth and builds.append(build_in_thread(problem)))
-        proof = None
-        if rec.get("phases") and (rec["phases"][0][1] == "Infeasible"
-                                  or rec.get("bound", np.inf) < problem.threshold):
-            # no seed path reaches κ: HiGHS proved it, or the encoding's bound on ρ̂ is
-            # below κ already (its feasibility phase then finds a path at that bound)
-            from stlc.backends.milp.conflict import prove_infeasible
-
-            proof = prove_infeasible(problem)  # HiGHS only: beside the build, too
-            rec["proof_s"] = time.perf_counter() - t0 - rec.get("total_s", 0.0)
-        nlp = builds[0]() if builds else None  # joined before this thread uses CasADi
-        if proof is None:  # the kinematic NLP, from the seed path when there is one,
-            # while the MILP with its choices free looks for a better class apart (rarely
-            # found on a handover: then the kinematic NLP runs again from that class)
-            if not self.smooth and paths is not None:
-                return (paths, rec, None), time.perf_counter() - t0
-            t1 = time.perf_counter()
-            free = apart.start(resume) if resume is not None else None
-
-            def smooth(path):
-                if path is not None and nlp is not None:
-                    return nlp.solve(path)
-                return schedule.kinematic_guess(problem, path=path)
-
-            kin = smooth(paths)
-            better, more = free()[0] if free is not None else (None, [])
-            if more:
-                rec["phases"] += [list(p) for p in more]
-            if better is not None:
-                paths, rec = better
-                kin = smooth(paths)
-            paths = kin
-            rec["kinematic_s"] = time.perf_counter() - t1
-            if "robustness" not in rec:
-                rec["fallback"] = "kinematic guess"
-                effort.say(f"{problem.name}: the MILP seed found no path ({rec.get('status')}, "
-                           f"budget {rec.get('budget_s', 0):.1f} s); the seed is the local "
-                           "kinematic guess", self.quiet)
-        return (paths, rec, proof), time.perf_counter() - t0
-
-    def next_seed(self, problem, channels) -> MilpPathSeed | None:
-        """A seed that leaves out this one's choices for the conjuncts of the seed formula
-        that the plan ``channels`` violates (exact monitor, κ): the next-best discrete
-        choice, or None when this seed chose nothing."""
-        from stlc.analysis import monitor
-
-        if not self.choices:
-            return None
-        f = seed_formula(problem)
-        bad = {i for i, c in enumerate(conjuncts(f)) if i in self.choices and
-               float(monitor.robustness(c, problem.grid.dt, channels, problem.params))
-               < problem.threshold}
-        cut = {i: self.choices[i] for i in (bad or self.choices)}
-        return MilpPathSeed(self.quiet, self.exclude + (cut,))
-
-    def invert(self, raw, inverse, problem):
-        (paths, rec, proof), dt_s, cpu_s, waited_s = raw
-        self.choices = rec.pop("choices", None)
-        if proof is not None:
-            from stlc.backends.milp.conflict import mark
-            from stlc.planning.fallback import hover_solution
-
-            sol = hover_solution(problem, "no plan exists", why="the mission is proved "
-                                 "infeasible, so no trajectory was planned: the plan shown is "
-                                 "every vehicle hovering at its start")
-            mark(problem, sol, proof)
-            sol.smoothing = {"method": problem.smoothing.method,
-                             "lambda": problem.smoothing.lam,
-                             "lambda_final": problem.smoothing.lam,
-                             "threshold": problem.threshold}
-        else:
-            sol = super().invert((paths, dt_s, cpu_s, waited_s), inverse, problem)
-        ok = "fallback" not in rec
-        status = rec.get("status")
-        sol.solver = sol.solver if proof is not None else {}
-        sol.solver.update({
-            "name": rec["name"] if ok else "kinematic guess (after the MILP seed)",
-            "status": str(SolverStatus.INFEASIBLE if proof is not None else
-                          HIGHS_STATUS_MAP.get(str(status), SolverStatus.FAILED)),
-            "return_status": "infeasible" if proof is not None else str(status),
-            "converged": status == "Optimal", "seed": rec})
-        sol.timing.update({"guess_s": dt_s, "guess_cpu_s": cpu_s, "guess_wait_s": waited_s})
-        return sol

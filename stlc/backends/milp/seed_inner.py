@@ -21,28 +21,28 @@ import math
 from stlc.semantics import ir
 
 
-def inner_norms(f: ir.Formula, params: dict) -> ir.Formula:
+def inner_norms(f: ir.Formula, params: dict, outer: bool = False) -> ir.Formula:
     """``f`` (in NNF) with every upper bound on a Euclidean norm of affine terms replaced by
-    the box inside it; the rest unchanged."""
+    the box inside it (``outer``: the box around it); the rest unchanged."""
     memo: dict[int, tuple[ir.Formula, ir.Formula]] = {}
 
     def go(g: ir.Formula) -> ir.Formula:
         hit = memo.get(id(g))
         if hit is not None:
             return hit[1]
-        out = _box(g, params) if isinstance(g, ir.Pred) else ir.map_children(g, go)
+        out = _box(g, params, outer) if isinstance(g, ir.Pred) else ir.map_children(g, go)
         memo[id(g)] = (g, out)
         return out
 
     return go(f)
 
 
-def _box(p: ir.Pred, params: dict) -> ir.Formula:
+def _box(p: ir.Pred, params: dict, outer: bool = False) -> ir.Formula:
     parts = _norm_bound(p.expr, params, p)
     if parts is None:
         return p
     c, terms = parts
-    r = ir.Bin("*", ir.Const(1.0 / math.sqrt(len(terms))), c)
+    r = c if outer else ir.Bin("*", ir.Const(1.0 / math.sqrt(len(terms))), c)
     preds = []
     for a in terms:
         for e, side in ((ir.Bin("-", r, a), "upper"), (ir.Bin("+", r, a), "lower")):
