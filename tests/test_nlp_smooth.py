@@ -131,9 +131,9 @@ def test_a_smoothing_that_would_give_away_robustness_is_not_kept():
     mission = program.missions["slalom"]
     _, sol = plan(program, mission)
     stages = sol.solver["stages"]
-    assert stages[-1]["label"] == smoothing.LABEL  # it kept ρ: no tighter retry
+    assert stages[-1]["label"].startswith(smoothing.LABEL)  # (a tighter retry or not)
     assert any("smoothed plan" in n and "not kept" in n for n in sol.notes)
-    rho0 = stages[-2]["exact"]  # the schedule's plan
+    rho0 = [s for s in stages if not s["label"].startswith(smoothing.LABEL)][-1]["exact"]
     assert sol.robustness_exact == pytest.approx(rho0, abs=1e-12)
     assert sol.robustness_exact >= rho0 - smoothing.RHO_TOL * (rho0 - mission.threshold)
 

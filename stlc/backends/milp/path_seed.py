@@ -59,9 +59,10 @@ class MilpPathSeed(KinematicGuess):
                            "bounds; a path with them relaxed seeds the NLP", self.quiet)
                 loose_rec["inner_phases"] = rec["phases"]  # the search that found none
                 paths, rec, resume = loose, loose_rec, loose_resume
-        proof = None
-        if rec.get("phases") and (rec["phases"][0][1] == "Infeasible"
-                                  or rec.get("bound", np.inf) < problem.threshold):
+        proof = None  # (a given path's record was asked for a proof when it was found)
+        if self.given is None and rec.get("phases") and (
+                rec["phases"][0][1] == "Infeasible"
+                or rec.get("bound", np.inf) < problem.threshold):
             # no seed path reaches κ: HiGHS proved it, or the encoding's bound on ρ̂ is
             # below κ already (its feasibility phase then finds a path at that bound)
             from stlc.backends.milp.conflict import prove_infeasible
