@@ -56,6 +56,7 @@ def test_45s_patrol_on_knots_is_satisfied(tmp_path):
     assert time.monotonic() - t0 < LIMIT_S
     assert problem.grid.n == 451 and len(sol.times) == 451
     assert sol.solver["knots"]["knots"] < problem.grid.n / 4  # planned on knots
+    assert any("seed's timing kept" in n for n in sol.notes)  # twice, order, back: closed
     rho = float(monitor.robustness(problem.requirement, problem.grid.dt, sol.channels,
                                    problem.params))
     assert sol.status == "satisfied" and rho >= problem.threshold
@@ -73,3 +74,29 @@ def test_45s_patrol_on_knots_is_satisfied(tmp_path):
     written = json.loads(solution_json(sol))
     assert written["status"] == "satisfied"
     assert isinstance(written["solver"]["seed"], dict)
+
+
+def test_a_plan_with_the_seeds_timing_that_misses_kappa_is_planned_as_written(tmp_path,
+                                                                             monkeypatch):
+    # the check of the plan with the seed's timing is told it misses κ: the knots are
+    # planned again from the same seed path with the formula as written, which the exact
+    # monitor (the real one) then judges satisfied
+    from stlc.backends.knots import backend as knots
+
+    real, calls = knots._exact, []
+
+    def exact(problem, channels):
+        calls.append(problem.grid.n)
+        return -1.0 if len(calls) == 1 else real(problem, channels)
+
+    monkeypatch.setattr(knots, "_exact", exact)
+    f = tmp_path / "patrol.stl"
+    f.write_text(PATROL)
+    program = pipeline.load(str(f)).program
+    with deadline.limited(LIMIT_S):
+        problem, sol = pipeline.plan(program, program.missions["patrol"], backend="knots")
+    assert calls[0] < problem.grid.n  # the first check was on the knots
+    assert not any("seed's timing kept" in n for n in sol.notes)
+    rho = float(monitor.robustness(problem.requirement, problem.grid.dt, sol.channels,
+                                   problem.params))
+    assert sol.status == "satisfied" and rho >= problem.threshold
