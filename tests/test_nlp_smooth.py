@@ -59,13 +59,16 @@ def tower():
     program = loaded.program
     mission = program.missions["inspect"]
     _, smooth_sol = plan(program, mission)
+    return program, mission, smooth_sol, _plan_without_smoothing(program, mission)
+
+
+def _plan_without_smoothing(program, mission):
     old = smoothing.SMOOTH
     smoothing.SMOOTH = False
     try:
-        _, plain_sol = plan(program, mission)
+        return plan(program, mission)[1]
     finally:
         smoothing.SMOOTH = old
-    return program, mission, smooth_sol, plain_sol
 
 
 def test_the_smoothed_plan_meets_kappa_by_the_monitor(tower, tmp_path):
@@ -104,12 +107,7 @@ def test_a_multirotor_nlp_has_no_jerk_term_and_its_plan_is_untouched():
     # the objective does not read the jerk weight (the last parameter)
     assert _objective_reads_jerk_weight(prob) is False
     _, on = plan(program, mission)
-    old = smoothing.SMOOTH
-    smoothing.SMOOTH = False
-    try:
-        _, off = plan(program, mission)
-    finally:
-        smoothing.SMOOTH = old
+    off = _plan_without_smoothing(program, mission)
     assert not any(s["label"].startswith(smoothing.LABEL) for s in on.solver["stages"])
     assert on.robustness_exact == off.robustness_exact and on.energy == off.energy
     for k, v in off.channels.items():

@@ -47,7 +47,7 @@ class _Fixer:
         try:
             return np.asarray(monitor.robustness_signal(f, self.dt, self.channels, self.params,
                                                         n=self.n), float)
-        except Exception:  # a channel the seed has not (an attitude, a rotor): left as is
+        except KeyError:  # a signal the seed has not (an attitude, a rotor): left as is
             return None
 
     def window(self, k: int, lo: float, hi: float) -> tuple[int, int]:

@@ -49,7 +49,8 @@ class MilpPathSeed(KinematicGuess):
         else:
             paths, rec, resume = plan(
                 problem, exclude=self.exclude, defer_free=True,
-                on_solve=lambda: self.smooth and builds.append(build_in_thread(problem)))
+                on_solve=(lambda: builds.append(build_in_thread(problem))) if self.smooth
+                else None)
         if paths is None and self.given is None and rec.get("phases") and \
                 rec["phases"][0][1] == "Infeasible":  # none within the inner bounds
             loose, loose_rec, loose_resume = plan(problem, exclude=self.exclude,
