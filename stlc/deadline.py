@@ -16,7 +16,7 @@ Work that cannot see the limit (building an NLP, waiting for the kinematic guess
 a watchdog: while the limit is *armed* (from ``limited`` until a solver that checks the
 limit itself calls ``disarm``), a timer raises ``TimeLimitReached`` in the planning thread
 when the solvers' share has run out (as ``stlc.interrupt`` does for Ctrl-C; a C call
-finishes first).  The pipeline then writes the best plan it has — with nothing found yet,
+finishes first, and so does an import, which an exception would leave half done).  The pipeline then writes the best plan it has — with nothing found yet,
 the vehicles hovering at their start — judged by the exact monitor.
 
 Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (no solve
@@ -177,9 +177,21 @@ def bounded(seconds: float | None = None) -> Iterator[None]:
         clear()
 
 
+def _importing(thread: int | None) -> bool:
+    """Is ``thread`` inside an import?  An exception raised there can leave a module half
+    initialised in ``sys.modules`` (CasADi without ``SX``) for the writer that comes next."""
+    frame = sys._current_frames().get(thread) if thread is not None else None
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _fire() -> None:
     with _lock:
-        if _watch["armed"] and not _watch["entered"]:  # not inside the block yet: soon
+        if _watch["armed"] and (not _watch["entered"] or _importing(_watch["thread"])):
+            # not inside the block yet, or importing a module: soon
             t = threading.Timer(0.02, _fire)
             t.daemon = True
             _watch["timer"] = t

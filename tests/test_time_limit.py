@@ -183,3 +183,25 @@ def test_watchdog_writer_sees_the_planning_threads_limit():
                        env=_env(), timeout=60)
     assert r.returncode == 3, r.stderr
     assert r.stdout.split() == ["writer", "True", "0.2", "False"]
+
+
+def test_watchdog_waits_for_an_import_to_finish(tmp_path):
+    """A limit that runs out while the planning thread imports a module is raised after the
+    import: the module is whole for the writer that comes next (an exception inside an
+    import can leave a half-initialised module behind — CasADi without ``SX``)."""
+    (tmp_path / "slow_module.py").write_text(
+        "import time\nfor _ in range(50):\n    time.sleep(0.01)\nDONE = True\n")
+    script = (
+        "import sys\nfrom stlc import deadline\n"
+        f"sys.path.insert(0, {str(tmp_path)!r})\n"
+        "try:\n"
+        "    with deadline.limited(0.05):\n"
+        "        import slow_module\n"
+        "        for _ in range(10 ** 9):\n"
+        "            pass\n"
+        "except deadline.TimeLimitReached:\n"
+        "    print('stopped', sys.modules['slow_module'].DONE, flush=True)\n")
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                       env=_env(), timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["stopped", "True"]
