@@ -322,3 +322,23 @@ def test_a_mission_only_a_moving_end_satisfies_is_planned_not_called_impossible(
     code, sol, _ = _compile(p, tmp_path / "out2", "-q")
     assert code == 3 and sol["status"] == "infeasible"
     assert sorted(sol["conflict"]) == ["far", "stop"]
+
+
+def test_a_speed_limit_takes_part_in_the_proof(tmp_path):
+    # by hand: with |v| <= 1 m/s at every sample and |a| <= 1 m/s², Δt = 0.5 s, the point
+    # mass covers at most 0.125 + 0.375 m in its first two steps (v: 0 → 0.5 → 1 m/s), then
+    # 0.5 m a step (a ≤ 0 at v = 1): 3.5 m by 4 s < 5 m, so no plan exists.  The limit is a
+    # norm (not affine): the proof keeps it as the box around its ball, |v_i| <= 1 m/s.
+    # At 2 m/s (the vehicle's own limit) the dash of the test above is possible again
+    from stlc.backends.milp.conflict import prove_infeasible
+
+    p = tmp_path / "slow.stl"
+    for limit, possible in (("1 m/s", False), ("2 m/s", True)):
+        p.write_text(DASH.replace("require far", f"spec slow = always[0, 4] (d1.speed <= {limit})"
+                                  "\n  require far and slow"), encoding="utf-8")
+        program = load(str(p)).program
+        proof = prove_infeasible(from_mission(program, program.missions["dash"]))
+        if possible:
+            assert proof is None
+        else:
+            assert proof is not None and sorted(proof.conflict) == ["far", "slow"]

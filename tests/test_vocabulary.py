@@ -169,10 +169,10 @@ def test_no_plan_found_says_whether_impossibility_was_proved(runs):
                 assert f"{mission}: no plan exists (proved" in r["terminal"]
 
 
-def test_the_speed_limit_impossibility_names_what_the_check_ignores(runs):
-    r = next(r for r in runs if Path(r["args"][1]).stem == "calm_courier")
+def test_the_clearance_impossibility_names_what_the_check_ignores(runs):
+    r = next(r for r in runs if Path(r["args"][1]).stem == "wary_courier")
     s = r["solutions"][""]
     assert s["status"] == "violated" and s["solver"]["infeasibility"]["proved"] is False
     why = s["solver"]["infeasibility"]["why"]
-    assert "uav1.speed <= 0.2 m/s" in why and "not linear" in why
+    assert "dist(uav1.pos, lamp) >= 1 m" in why and "not linear" in why
     assert "impossibility could not be proved" in r["terminal"]

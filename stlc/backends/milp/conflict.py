@@ -14,9 +14,12 @@ proof:
   flown trajectory with accelerations a(t) in the box has ā = (2/Δt²)∬a and a' = (1/Δt)∫a,
   weighted means of a(t) and so in the (convex) box; RK4's and Euler's sample-to-sample maps
   are such means of their stage accelerations too, so the real discrete models are inside;
-* every predicate that reads anything but positions and velocities (attitude, rotor speed,
-  speed norm, payload, an input) is replaced by ``true``: the formula is in negation normal
-  form, hence monotone in its predicates, so this can only raise the robustness.
+* an upper bound on a norm of positions and velocities (a speed limit ‖v‖ ≤ c) becomes the
+  box around its ball, |v_i| ≤ c (``seed_inner.inner_norms`` with ``outer``): each margin
+  c − |v_i| is at least c − ‖v‖;
+* every other predicate that reads anything but positions and velocities (attitude, rotor
+  speed, payload, an input, a distance) is replaced by ``true``.  The formula is in negation
+  normal form, hence monotone in its predicates, so both can only raise the robustness.
 
 Linear vehicles planned with their zero-order-hold model (the point mass; the NLP's RK4 is
 exact on it) need no relaxation: the proof uses their own discrete dynamics and every
@@ -40,6 +43,7 @@ import numpy as np
 from stlc import deadline, vehicles
 from stlc.backends.milp.backend import build
 from stlc.backends.milp.encode import NotLinear
+from stlc.backends.milp.seed_inner import inner_norms, norm_bounded
 from stlc.solvers.highs import Highs
 from stlc.diagnostics import Diagnostic
 from stlc.semantics import ir
@@ -134,6 +138,8 @@ def _ignored(problem, keep: set) -> list[str]:
             linear = True
         except (NotLinear, ValueError):
             linear = False
+        if not linear and norm_bounded(f, problem.params):
+            linear = True  # kept as the box around its ball
         if not linear or not ir.signals(f) <= keep:
             out.append(f.label)
     return out
@@ -212,8 +218,9 @@ def prove_infeasible(problem, why: list | None = None) -> Proof | None:
         from stlc.backends.milp.backend import planned_channels
 
         keep |= planned_channels(problem)
-    restrict = lambda f: ir.restrict(drop_nonlinear(f, problem.params, {}),  # noqa: E731
-                                     lambda s: s in keep)
+    restrict = lambda f: ir.restrict(  # noqa: E731
+        drop_nonlinear(inner_norms(f, problem.params, outer=True), problem.params, {}),
+        lambda s: s in keep)
     req = restrict(problem.requirement)
     size = sum(1 for _ in ir.nodes(problem.requirement))
     if problem.grid.n * len(problem.team) * size > MAX_CELLS:

@@ -9,8 +9,9 @@ then the NLP missed κ and the whole fallback ran).  Here a predicate ``c − �
 0`` with affine a_i and a constant c becomes the box ``|a_i| ≤ c/√k`` for every i (a
 conjunction: no binary).  The box lies inside the ball (‖a‖₂ ≤ √k · max|a_i|), so a path
 that keeps it keeps the limit — an *inner* approximation, right for a seed (the MILP must
-not pick a path the vehicle may not fly) and wrong for a proof (``milp.conflict`` keeps
-dropping such predicates: its relaxation must contain every plan).  A norm bound from
+not pick a path the vehicle may not fly) and wrong for a proof, whose relaxation must
+contain every plan: ``milp.conflict`` takes the box *around* the ball (``outer``: |a_i| ≤ c,
+a margin c − |a_i| ≥ c − ‖a‖₂ for every i).  A norm bound from
 below (``‖a‖ ≥ c``, not convex) and every other nonlinear predicate are left as they are.
 """
 
@@ -35,6 +36,12 @@ def inner_norms(f: ir.Formula, params: dict, outer: bool = False) -> ir.Formula:
         return out
 
     return go(f)
+
+
+def norm_bounded(p: ir.Pred, params: dict) -> bool:
+    """Is ``p`` an upper bound on a Euclidean norm of affine terms (what ``inner_norms``
+    replaces by a box)?"""
+    return _norm_bound(p.expr, params, p) is not None
 
 
 def _box(p: ir.Pred, params: dict, outer: bool = False) -> ir.Formula:
