@@ -16,8 +16,9 @@ Work that cannot see the limit (building an NLP, waiting for the kinematic guess
 a watchdog: while the limit is *armed* (from ``limited`` until a solver that checks the
 limit itself calls ``disarm``), a timer raises ``TimeLimitReached`` in the planning thread
 when the solvers' share has run out (as ``stlc.interrupt`` does for Ctrl-C; a C call
-finishes first, and so does an import, which an exception would leave half done).  The pipeline then writes the best plan it has — with nothing found yet,
-the vehicles hovering at their start — judged by the exact monitor.
+finishes first, and so does an import, which an exception would leave half done).  The
+pipeline then writes the best plan it has — with nothing found yet, the vehicles hovering
+at their start — judged by the exact monitor.
 
 Without ``--time-limit`` or ``time_limit`` a run still has one: ``DEFAULT_LIMIT_S`` (no solve
 without a time limit), so no NLP solve, stage or build runs unbounded; a run that
