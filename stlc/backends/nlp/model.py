@@ -129,6 +129,7 @@ class NlpProblem:
     inv: InverseData | None = None  # set by build: the choice parameters live there
     #: the objective has the input-change term w_jerk·Σ‖Δu/u_max‖²/(N−1) (``smoothing``)
     smoothable: bool = False
+    jerk_fn: ca.Function | None = None  # w -> that input change J (``smoothing``)
 
 
 @dataclass
@@ -299,6 +300,7 @@ def build(problem: PlanningProblem, quiet: bool = True) -> tuple[NlpProblem, Inv
                       {k: program.params[k] for k in psyms})
     prob.inv = inv
     prob.smoothable = smoothable
+    prob.jerk_fn = ca.Function("jerk", [w], [jerk])
 
     def verify(x: np.ndarray, gv: np.ndarray) -> float | None:
         if n_dyn and np.max(np.abs(gv[:n_dyn])) > FEASIBLE_DEFECT:

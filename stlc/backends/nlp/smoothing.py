@@ -66,17 +66,11 @@ LABEL = "smooth"
 STILL = 1e-9  #: a plan whose input change J is at most this is left as it is
 
 
-def input_change(prob: NlpProblem, inv: InverseData, w: np.ndarray) -> float:
+def input_change(prob: NlpProblem, w: np.ndarray) -> float:
     """J of ``w`` (module doc): the squared input change in units of each input's bound,
-    per interval, summed over the team — the term the stage minimises."""
-    total = 0.0
-    for L in inv.layouts:
-        nu, N = L.nu, inv.grid.n_intervals
-        U = np.asarray(w[L.u_slice]).reshape(N, nu)
-        scale = np.maximum(np.abs(prob.lbx[L.u_slice][:nu]), np.abs(prob.ubx[L.u_slice][:nu]))
-        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
-        total += float(np.sum((np.diff(U, axis=0) / scale) ** 2)) / max(N - 1, 1)
-    return total
+    per interval, summed over the team — the term the stage minimises (``model.build``'s
+    own expression of it)."""
+    return float(prob.jerk_fn(w))
 
 
 def applies(prob: NlpProblem) -> bool:
@@ -92,7 +86,7 @@ def stage(prob: NlpProblem, inv: InverseData, problem, result: RawResult, solve,
     params, kappa, lam = problem.params, problem.threshold, result.lam
     w = result.w
     rho = exact_robustness(inv.formula, inv, w, params)
-    j0 = input_change(prob, inv, w)
+    j0 = input_change(prob, w)
     if not rho >= kappa or j0 <= STILL:
         return  # nothing to keep (the plan misses κ) or nothing to smooth
     least = rho - RHO_TOL * (rho - kappa)
@@ -113,7 +107,7 @@ def stage(prob: NlpProblem, inv: InverseData, problem, result: RawResult, solve,
             w_s, stats, f_, dt_ = solve(prob, w0, [lam, 0.0, 0.0, 0.0], floor, label, ITER,
                                         most_robust=False, jerk=1.0)
             st = record(label, lam, w_s, stats, f_, dt_)
-            j1 = input_change(prob, inv, w_s)
+            j1 = input_change(prob, w_s)
             if st.feasible and st.exact >= kappa and st.exact >= least and j1 < j0:
                 result.w = w_s
                 return
