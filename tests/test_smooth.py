@@ -193,11 +193,16 @@ def test_stable_for_large_values(case, seed):
     rng = np.random.default_rng(seed)
     big = {k: v * 100.0 + rng.normal(0, 1e3, size=v.shape) for k, v in ch.items()}
     exact = robustness_signal(f, dt, big)
+    fin = np.isfinite(exact)
+    # float error as in test_converges_as_lambda_grows: the log-space sums hold λ|a|, whose
+    # rounding is a relative error of the result, ~4·eps·λ·|a|² in absolute terms (found by
+    # Hypothesis: a cubic predicate, |a| = 2.6e8, gkl off by 22 at λ = 50)
+    scale = max(1.0, float(np.max(np.abs(exact[fin]), initial=0.0)))
+    rounding = 4 * np.finfo(float).eps * 50.0 * scale * scale
     for method in ("gkl", "lse"):
         sm = smooth_robustness_signal(f, dt, big, lam=50.0, method=method)
         same_infinities(sm, exact)
-        fin = np.isfinite(exact)
-        assert np.all(np.abs(sm[fin] - exact[fin]) < 1.0)
+        assert np.all(np.abs(sm[fin] - exact[fin]) < 1.0 + rounding)
 
 
 @settings(max_examples=40, deadline=None)
