@@ -1,7 +1,7 @@
-"""The seed's timing kept on long missions (``stlc.backends.knots.windows``): each rewrite
-keeps one term of a max, so the fixed formula is never more robust than the requirement on
-any trace, and on the seed's own trace it is exactly as robust (every choice is the argmax
-there).  Values by hand and by the exact monitor."""
+"""The seed's timing kept (``stlc.backends.knots.windows``): each rewrite keeps one term of
+a max (with a slack, a subset of its terms), so the fixed formula is never more robust than
+the requirement on any trace, and on the seed's own trace it is exactly as robust (every
+choice is the argmax there).  Values by hand and by the exact monitor."""
 
 from __future__ import annotations
 
@@ -78,6 +78,43 @@ def test_the_fixed_formula_is_never_more_robust_and_as_robust_on_the_seed(case):
     f, dt, seed, other = case
     n = len(seed["x"])
     fixed = fix_windows(f, dt, seed, {}, n)
+    if fixed is None:
+        return
+    assert rho(fixed, dt, seed) == rho(f, dt, seed)
+    assert rho(fixed, dt, other) <= rho(f, dt, other)
+
+
+def test_with_slack_a_window_is_narrowed_around_the_seed_sample_not_closed():
+    dt = 0.5
+    x = np.array([0.0, 1.0, 3.0, 2.0, 5.0, 4.0, 0.0, 0.0])
+    f = ir.Eventually(0.0, 3.0, ir.Always(0.0, 0.5, ge("x", 1.0)))
+    # the seed's sample is k = 4 (offset 2 s, as above): ±1 s within [0, 3] is [1, 3]
+    fixed = fix_windows(f, dt, {"x": x}, {}, len(x), slack=1.0)
+    assert fixed == ir.Eventually(1.0, 3.0, ir.Always(0.0, 0.5, ge("x", 1.0)))
+    # a trace best at k = 3 (offset 1.5 s): inside the narrowed window, outside the closed one
+    z = np.array([0.0, 0.0, 0.0, 3.0, 3.0, 0.0, 0.0, 0.0])
+    closed = fix_windows(f, dt, {"x": x}, {}, len(x))
+    assert rho(fixed, dt, {"x": z}) == rho(f, dt, {"x": z}) == 2.0
+    assert rho(closed, dt, {"x": z}) == -1.0
+
+
+def test_with_slack_an_until_keeps_its_window_around_the_seed_sample():
+    dt = 1.0
+    x = np.array([2.0, 2.0, 2.0, -1.0, 2.0])
+    y = np.array([-3.0, 0.0, 1.5, 9.0, 9.0])
+    f = ir.Until(0.0, 4.0, ge("x", 0.0), ge("y", 0.0))
+    # the seed's sample is k' = 2 (as above): the window [1, 3], the until kept
+    fixed = fix_windows(f, dt, {"x": x, "y": y}, {}, 5, slack=1.0)
+    assert fixed == ir.Until(1.0, 3.0, ge("x", 0.0), ge("y", 0.0))
+    assert rho(fixed, dt, {"x": x, "y": y}) == rho(f, dt, {"x": x, "y": y}) == 1.5
+
+
+@settings(max_examples=200, deadline=None)
+@given(seeded(), st.sampled_from([0.1, 0.5, 1.0, 2.5]))
+def test_a_narrowed_formula_is_never_more_robust_and_as_robust_on_the_seed(case, slack):
+    f, dt, seed, other = case
+    n = len(seed["x"])
+    fixed = fix_windows(f, dt, seed, {}, n, slack=slack)
     if fixed is None:
         return
     assert rho(fixed, dt, seed) == rho(f, dt, seed)

@@ -124,7 +124,7 @@ def test_long_missions_take_the_knot_chain(tmp_path):
     from stlc.backends.strategy import select
 
     program, mission = _load(tmp_path, horizon=6)
-    assert select(from_mission(program, mission)).name == "nlp"  # 61 samples
+    assert select(from_mission(program, mission)).name == "timed"  # 61 samples
     program, mission = _load(tmp_path, horizon=45, last=40)
     assert select(from_mission(program, mission)).name == "knots"  # 451 samples
 

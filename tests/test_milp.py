@@ -180,7 +180,7 @@ def test_selection_by_capability():
     root = Path(__file__).parent.parent
     hand = load(str(root / "specs" / "handover.stl")).program
     m = next(iter(hand.missions.values()))
-    assert select(from_mission(hand, m)).name == "nlp"  # a multirotor is not linear
+    assert select(from_mission(hand, m)).name == "timed"  # a multirotor is not linear
     team = load(str(root / "specs" / "bird_diverter_2x7.stl")).program
     m = next(iter(team.missions.values()))
     assert select(from_mission(team, m)).name == "team"

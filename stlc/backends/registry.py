@@ -14,6 +14,7 @@ def registry() -> dict[str, type]:
     from stlc.backends.replan.takeover import TakeoverBackend
     from stlc.backends.nlp.backend import CasadiNlp, KinematicGuess
     from stlc.backends.knots.backend import KnotNlp
+    from stlc.backends.knots.timed import TimedNlp
     from stlc.backends.milp.backend import ExactMilp
     from stlc.backends.milp.path_seed import MilpPathSeed
     from stlc.backends.milp.start import CoarseStart
@@ -22,6 +23,7 @@ def registry() -> dict[str, type]:
 
     return {"milp": ExactMilp, "milp-start": CoarseStart, "kinematic": KinematicGuess,
             "seed-milp": MilpPathSeed, "casadi": CasadiNlp, "knots": KnotNlp,
+            "timed": TimedNlp,
             "team-milp": MilpSeed, "team-refine": TeamRefine,
             # replanning backends, run by the simulation on an event's problem (no chain)
             "segment": SegmentBackend, "takeover": TakeoverBackend}

@@ -15,6 +15,9 @@ vehicle models — "linear dynamics only" —, formula nodes, functions, planned
   globally);
 * ``knots``: a long mission (more than ``knots.LONG_SAMPLES`` samples) planned by the
   ``nlp`` chain on a coarse grid of knots, simulated on the mission grid (``knots``);
+* ``timed``: a multirotor's mission on its own grid, planned by the ``nlp`` chain with the
+  MILP seed's timing kept (``knots.timed``); a plan that misses κ is planned again by the
+  ``nlp`` chain with the times free;
 * ``nlp``: MILP seed (the discrete choices of a double-integrator abstraction, chosen
   globally; ``milp.seed``) → the full-dynamics smooth-robustness NLP (anything else);
   ``kinematic`` forces the local kinematic guess as the seed instead.
@@ -38,6 +41,7 @@ CHAINS: dict[str, tuple[str, ...]] = {
     "team": ("team-milp", "team-refine"),
     "milp": ("milp-start", "milp"),
     "knots": ("knots",),
+    "timed": ("timed",),
     "nlp": ("seed-milp", "casadi"),
     "kinematic": ("kinematic", "casadi"),
 }
@@ -140,6 +144,8 @@ def plan(problem, chain: Chain, quiet: bool = True):
     sol = _next_choices(problem, chain, sol, quiet)
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
+    elif _untimed(chain, sol):
+        sol = _timing_free(problem, sol, quiet)
     if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
         from stlc.backends.milp.conflict import explain_infeasible
         from stlc.planning.frame import to_local
@@ -266,6 +272,35 @@ def _falls_back(chain, sol) -> bool:
             and not sol.solver.converged and not deadline.solve_expired())
 
 
+def _untimed(chain, sol) -> bool:
+    """The plan with the seed's timing kept (``timed``) missed κ: the ``nlp`` chain, which
+    decides the times itself, plans the mission again (not once the time limit is out)."""
+    from stlc import deadline
+
+    return (chain.name == "timed" and sol.status not in ("satisfied", "infeasible")
+            and bool(sol.solver.get("seed_timing")) and not deadline.solve_expired())
+
+
+def _timing_free(problem, first, quiet: bool):
+    """Plan ``problem`` with the ``nlp`` chain (and its further seeds) after the plan with
+    the seed's timing kept missed κ; the verified plan with the larger exact robustness is
+    kept (ties: the first)."""
+    chain = select(problem, "nlp", quiet)
+    if not quiet:
+        print(f"{problem.mission.name}: exact robustness {first.robustness_exact:+.4f} < κ "
+              "with the seed's timing kept; planning again with the times free: "
+              + " → ".join(b.name for b in chain.backends), file=sys.stderr)
+    sol = _next_choices(problem, chain, _run_verified(problem, chain), quiet)
+    if _better(sol.robustness_exact, first.robustness_exact):
+        sol.solver.chain.fallback_from = first.solver.chain
+        sol.notes.append(f"planned with the times free: the plan with the seed's timing "
+                         f"kept had exact robustness {first.robustness_exact:.6g}")
+        return sol
+    first.notes.append("the `nlp` chain, tried with the times free, found no better plan "
+                       f"(exact robustness {sol.robustness_exact:.6g})")
+    return first
+
+
 def _fallback(problem, first, quiet: bool):
     """Plan ``problem`` with the ``nlp`` chain (on knots if long) after an unconverged exact
     chain; keep the verified plan with the larger exact robustness (ties: the exact chain's).
@@ -308,7 +343,16 @@ def replanner(kind: str):
 
 def warm_startable(chain: list) -> bool:
     """Does the chain end with the trajectory NLP, which a plan library can warm start?"""
-    return bool(chain) and isinstance(chain[-1], registry()["casadi"])
+    return bool(chain) and isinstance(_as_nlp(chain)[-1], registry()["casadi"])
+
+
+def _as_nlp(chain: list) -> list:
+    """The ``timed`` chain as the ``nlp`` chain it runs on (its seed and NLP): a
+    neighbour's plan brings its own times, so a warm start plans with the formula as
+    written."""
+    if chain and isinstance(chain[-1], registry()["timed"]):
+        return _instances("nlp", getattr(chain[-1], "quiet", True))
+    return chain
 
 
 def library_chain(chain: list, near) -> list:
@@ -316,6 +360,7 @@ def library_chain(chain: list, near) -> list:
     instead of its own seed, which stays the fallback."""
     from stlc.backends.nlp.library import LibrarySeed
 
+    chain = _as_nlp(chain)
     return [LibrarySeed(*near, own=chain[0]), chain[-1]]
 
 

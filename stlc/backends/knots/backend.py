@@ -117,8 +117,17 @@ class KnotNlp(Backend):
                                 nodes=ALL_NODES, functions=ALL_FUNCTIONS)
     STATUS_MAP = STATUS_MAP
 
+    #: a window kept on the seed's sample is closed there (on knots, one knot is 0.5 s)
+    SLACK = 0.0
+    KEPT_NOTE = ("the knots were planned with the seed's timing kept: every window needed at "
+                 "one sample closed on the seed's sample")
+
     def __init__(self, quiet: bool = True):
         self.quiet = quiet
+
+    def factor(self, problem: PlanningProblem) -> int:
+        """The knots' factor m (``knot_factor``)."""
+        return knot_factor(problem)
 
     def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
         from stlc.backends.base import unsupported
@@ -150,15 +159,18 @@ class KnotNlp(Backend):
         from stlc.backends.nlp.backend import seed_paths
 
         t0 = time.perf_counter()
-        m = knot_factor(problem)
-        cp = coarse_problem(problem, m)
+        m = self.factor(problem)
+        cp = coarse_problem(problem, m) if m > 1 else problem
         from stlc.planning.budget import check_nlp
 
         check_nlp(cp, problem.mission.span)  # STL606 before anything is built
-        self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
-                  f"({cp.grid.n} knots for {problem.grid.n} samples)")
+        if m > 1:
+            self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
+                      f"({cp.grid.n} knots for {problem.grid.n} samples)")
         seed = MilpPathSeed(self.quiet, smooth=False)
-        path, _ = run_chain(cp, [seed])
+        path, sols = run_chain(cp, [seed])
+        if path.status == "infeasible" and m == 1:  # a proof on the mission grid
+            return "grid", (path, sols), t0
         if path.status == "infeasible":  # a proof about the knots only: not reported
             self._say(problem, "the knots' seed found no path; planning on the mission "
                       "grid instead")
@@ -166,27 +178,30 @@ class KnotNlp(Backend):
         given = (seed_paths(path, cp.team, cp.grid.n), dict(path.solver.get("seed", {})))
         fixed = self._fixed(cp, path)
         if fixed is not None:
-            self._say(problem, "the seed's timing kept: every window needed at one sample "
-                      "closed on the sample the seed chose")
+            self._say(problem, self.KEPT_NOTE)
             sol_c, sols = run_chain(fixed, [MilpPathSeed(self.quiet, given=given),
                                             CasadiNlp(self.quiet)])
+            if m == 1:  # judged as planned; the ``nlp`` chain follows if it misses κ
+                sol_c.notes.append(self.KEPT_NOTE)
+                sol_c.solver["seed_timing"] = {"slack_s": self.SLACK}
+                return "grid", _with_seed(sol_c, sols), t0
             if sol_c.feasible and _exact(cp, sol_c.channels) >= cp.threshold:
-                sol_c.notes.append("the knots were planned with the seed's timing kept (every "
-                                   "window needed at one sample closed on the seed's sample)")
+                sol_c.notes.append(self.KEPT_NOTE)
                 return "knots", (m, sol_c, sols, fixed), t0
             self._say(problem, "the plan with the seed's timing misses κ on the knots: "
                       "planning them with the formula as written")
         sol_c, sols = run_chain(cp, [MilpPathSeed(self.quiet, given=given),
                                      CasadiNlp(self.quiet)])
+        if m == 1:
+            return "grid", _with_seed(sol_c, sols), t0
         return "knots", (m, sol_c, sols, cp), t0
 
-    @staticmethod
-    def _fixed(cp: PlanningProblem, path: Solution) -> PlanningProblem | None:
+    def _fixed(self, cp: PlanningProblem, path: Solution) -> PlanningProblem | None:
         """``cp`` with the seed path's timing kept (``windows.fix_windows``), or None."""
         from stlc.backends.knots.windows import fix_windows
 
         f = fix_windows(cp.requirement, cp.grid.dt, {**cp.fixed_channels, **path.channels},
-                        cp.params, cp.grid.n)
+                        cp.params, cp.grid.n, self.SLACK)
         return None if f is None else replace(cp, requirement=f)
 
     def _on_grid(self, problem):
@@ -296,6 +311,15 @@ class KnotNlp(Backend):
             return fine
         sol.notes.append(f"a polish on the mission grid found no better plan ({r2:+.4g})")
         return sol
+
+
+def _with_seed(sol: Solution, sols: list) -> tuple[Solution, list]:
+    """A plan on the mission grid with its seed's record (what the MILP chose), as the
+    ``nlp`` chain's plan has it."""
+    rec = sols[0].solver.get("seed") if sols else None
+    if isinstance(rec, dict):
+        sol.solver["seed"] = rec
+    return sol, sols
 
 
 def _exact(problem: PlanningProblem, channels: dict[str, np.ndarray]) -> float:

@@ -16,6 +16,11 @@ rewrite keeps one term of a max, so the fixed formula's robustness is at most th
 formula's at every trajectory: a plan meeting κ on it meets κ on the requirement (which
 the exact monitor judges, as every plan).  A node whose signal cannot be computed on the
 seed (it reads a channel the seed has not) is left as written.
+
+With a ``slack`` (the ``timed`` chain of a mission on its own grid), a window is narrowed
+to the seed's offset ± slack instead, clipped to the window as written (``until`` keeps
+its left operand): the max then runs over a subset of its terms, so the same bound holds,
+and the planner may still move each time a little.
 """
 
 from __future__ import annotations
@@ -30,17 +35,20 @@ from stlc.semantics.timegrid import steps_ceil, steps_floor
 
 
 def fix_windows(f: ir.Formula, dt: float, channels: Mapping[str, np.ndarray],
-                params: Mapping[str, float], n: int) -> ir.Formula | None:
+                params: Mapping[str, float], n: int, slack: float = 0.0) -> ir.Formula | None:
     """``f`` with the choices it makes at single samples fixed as the seed ``channels``
-    (every channel n samples at step dt) make them; None when nothing was fixed."""
-    fixer = _Fixer(dt, channels, params, n)
+    (every channel n samples at step dt) make them; None when nothing was fixed.  With
+    ``slack`` > 0 a window is narrowed to the seed's offset ± ``slack`` (s) instead of
+    closed on it, so the planner may still move the time a little."""
+    fixer = _Fixer(dt, channels, params, n, slack)
     out = fixer.at(f, 0)
     return out if fixer.fixed else None
 
 
 class _Fixer:
-    def __init__(self, dt: float, channels, params, n: int):
+    def __init__(self, dt: float, channels, params, n: int, slack: float = 0.0):
         self.dt, self.channels, self.params, self.n = dt, channels, params, n
+        self.slack = slack
         self.fixed = 0
 
     def signal(self, f: ir.Formula) -> np.ndarray | None:
@@ -74,6 +82,9 @@ class _Fixer:
             j = a + int(np.argmax(s[a:b + 1]))
             d = (j - k) * self.dt
             self.fixed += 1
+            if self.slack > 0:
+                lo, hi = max(f.lo, d - self.slack), min(f.hi, d + self.slack)
+                return ir.Eventually(lo, hi, self.at(f.arg, j), f.span)
             return ir.Eventually(d, d, self.at(f.arg, j), f.span)
         if isinstance(f, ir.Until):
             a, b = self.window(k, f.lo, f.hi)
@@ -85,6 +96,9 @@ class _Fixer:
             j = a + int(np.argmax(np.minimum(right[a:b + 1], run)))
             d = (j - k) * self.dt
             self.fixed += 1
+            if self.slack > 0:
+                lo, hi = max(f.lo, d - self.slack), min(f.hi, d + self.slack)
+                return ir.Until(lo, hi, f.left, self.at(f.right, j), f.span)
             return ir.And((ir.Eventually(d, d, self.at(f.right, j), f.span),
                            ir.Always(0.0, d, f.left, f.span)), f.span)
         return f  # needed at many samples (always, release, implies, …): as written

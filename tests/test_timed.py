@@ -1,0 +1,77 @@
+"""A multirotor's mission on its own grid planned with the MILP seed's timing kept
+(``stlc.backends.knots.timed``): the default chain of a handover; every window is narrowed
+around the seed's sample, the exact monitor judges the plan against the requirement as
+written, and a plan that misses κ is planned again by the ``nlp`` chain with the times
+free."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from stlc import deadline, pipeline
+from stlc.analysis import monitor
+from stlc.backends import strategy
+from stlc.backends.knots.timed import TIMING_SLACK_S
+from stlc.planning.problem import from_mission
+
+SPEC = Path(__file__).resolve().parent.parent / "specs" / "handover.stl"
+LIMIT_S = 240
+
+
+@pytest.fixture(scope="module")
+def handover():
+    program = pipeline.load(str(SPEC)).program
+    return program, program.missions["handover_left_tb"]
+
+
+def _exact(problem, sol) -> float:
+    return float(monitor.robustness(problem.requirement, problem.grid.dt, sol.channels,
+                                     problem.params))
+
+
+def test_a_handover_is_planned_with_the_seeds_timing_and_satisfied(handover):
+    program, mission = handover
+    assert strategy.select(from_mission(program, mission)).name == "timed"
+    with deadline.limited(LIMIT_S):
+        problem, sol = pipeline.plan(program, mission)
+    rec = sol.solver["chain"]
+    assert rec["name"] == "timed" and rec["stages"][0]["backend"] == "timed nlp"
+    assert sol.solver["seed_timing"]["slack_s"] == TIMING_SLACK_S
+    assert isinstance(sol.solver["seed"], dict) and sol.solver["seed"]["status"] == "Optimal"
+    # judged against the requirement as written, by the exact monitor
+    assert sol.status == "satisfied"
+    assert _exact(problem, sol) == sol.robustness_exact >= problem.threshold
+    # the NLP carried smaller smooth-max trees than the formula as written's
+    assert sol.problem_size["aux"] < 1200
+
+
+def test_a_plan_with_the_seeds_timing_that_misses_kappa_is_planned_with_the_times_free(
+        handover, monkeypatch):
+    # the timed chain's plan is replaced by a hover (violated): the `nlp` chain plans the
+    # mission again, the exact monitor judges its plan, and the record says what ran
+    from stlc.backends.knots.timed import TimedNlp
+    from stlc.planning.fallback import hover_solution
+
+    def hovering(self, raw, inv, problem):
+        sol = hover_solution(problem, "test")
+        sol.solver["seed_timing"] = {"slack_s": TIMING_SLACK_S}
+        return sol
+
+    monkeypatch.setattr(TimedNlp, "solve", lambda self, lowered, problem: None)
+    monkeypatch.setattr(TimedNlp, "invert", hovering)
+    program, mission = handover
+    with deadline.limited(LIMIT_S):
+        problem, sol = pipeline.plan(program, mission)
+    rec = sol.solver["chain"]
+    assert rec["name"] == "nlp" and rec["fallback_from"]["name"] == "timed"
+    assert any("planned with the times free" in n for n in sol.notes)
+    assert sol.status == "satisfied"
+    assert _exact(problem, sol) == sol.robustness_exact >= problem.threshold
+
+
+def test_a_forced_nlp_chain_decides_the_times_itself(handover):
+    program, mission = handover
+    chain = strategy.select(from_mission(program, mission), "nlp")
+    assert [b.name for b in chain.backends] == ["milp seed", "casadi/ipopt"]
