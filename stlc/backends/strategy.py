@@ -273,8 +273,9 @@ def _falls_back(chain, sol) -> bool:
 
 
 def _untimed(chain, sol) -> bool:
-    """The plan with the seed's timing kept (``timed``) missed κ: the ``nlp`` chain, which
-    decides the times itself, plans the mission again (not once the time limit is out)."""
+    """The ``timed`` chain's plan missed κ: the ``nlp`` chain, which decides the times
+    itself and tries further seeds, plans the mission again (not once the time limit is
+    out)."""
     from stlc import deadline
 
     return (chain.name == "timed" and sol.status not in ("satisfied", "infeasible")
@@ -282,19 +283,20 @@ def _untimed(chain, sol) -> bool:
 
 
 def _timing_free(problem, first, quiet: bool):
-    """Plan ``problem`` with the ``nlp`` chain (and its further seeds) after the plan with
-    the seed's timing kept missed κ; the verified plan with the larger exact robustness is
-    kept (ties: the first)."""
+    """Plan ``problem`` with the ``nlp`` chain (and its further seeds) after the ``timed``
+    chain's plan missed κ; the verified plan with the larger exact robustness is kept
+    (ties: the first)."""
     chain = select(problem, "nlp", quiet)
     if not quiet:
         print(f"{problem.mission.name}: exact robustness {first.robustness_exact:+.4f} < κ "
-              "with the seed's timing kept; planning again with the times free: "
+              "from the `timed` chain; planning again with the times free: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
     sol = _next_choices(problem, chain, _run_verified(problem, chain), quiet)
     if _better(sol.robustness_exact, first.robustness_exact):
         sol.solver.chain.fallback_from = first.solver.chain
-        sol.notes.append(f"planned with the times free: the plan with the seed's timing "
-                         f"kept had exact robustness {first.robustness_exact:.6g}")
+        sol.notes.append(f"planned with the times free: the `timed` chain's plan (the "
+                         f"seed's timing kept) had exact robustness "
+                         f"{first.robustness_exact:.6g}")
         return sol
     first.notes.append("the `nlp` chain, tried with the times free, found no better plan "
                        f"(exact robustness {sol.robustness_exact:.6g})")

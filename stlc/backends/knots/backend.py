@@ -183,8 +183,7 @@ class KnotNlp(Backend):
                                             CasadiNlp(self.quiet)])
             if m == 1:  # judged as planned; the ``nlp`` chain follows if it misses κ
                 sol_c.notes.append(self.KEPT_NOTE)
-                sol_c.solver["seed_timing"] = {"slack_s": self.SLACK}
-                return "grid", _with_seed(sol_c, sols), t0
+                return "grid", _with_seed(sol_c, sols, self.SLACK, True), t0
             if sol_c.feasible and _exact(cp, sol_c.channels) >= cp.threshold:
                 sol_c.notes.append(self.KEPT_NOTE)
                 return "knots", (m, sol_c, sols, fixed), t0
@@ -192,8 +191,9 @@ class KnotNlp(Backend):
                       "planning them with the formula as written")
         sol_c, sols = run_chain(cp, [MilpPathSeed(self.quiet, given=given),
                                      CasadiNlp(self.quiet)])
-        if m == 1:
-            return "grid", _with_seed(sol_c, sols), t0
+        if m == 1:  # nothing to keep: the ``nlp`` chain's first plan (its further seeds
+            # follow if it misses κ)
+            return "grid", _with_seed(sol_c, sols, self.SLACK, False), t0
         return "knots", (m, sol_c, sols, cp), t0
 
     def _fixed(self, cp: PlanningProblem, path: Solution) -> PlanningProblem | None:
@@ -313,12 +313,15 @@ class KnotNlp(Backend):
         return sol
 
 
-def _with_seed(sol: Solution, sols: list) -> tuple[Solution, list]:
+def _with_seed(sol: Solution, sols: list, slack: float, kept: bool
+               ) -> tuple[Solution, list]:
     """A plan on the mission grid with its seed's record (what the MILP chose), as the
-    ``nlp`` chain's plan has it."""
+    ``nlp`` chain's plan has it, and whether the seed's timing was kept (``seed_timing``:
+    ``strategy`` plans a plan that misses κ again with the ``nlp`` chain)."""
     rec = sols[0].solver.get("seed") if sols else None
     if isinstance(rec, dict):
         sol.solver["seed"] = rec
+    sol.solver["seed_timing"] = {"kept": kept, "slack_s": slack}
     return sol, sols
 
 
