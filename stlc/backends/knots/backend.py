@@ -119,6 +119,7 @@ class KnotNlp(Backend):
 
     #: a window kept on the seed's sample is closed there (on knots, one knot is 0.5 s)
     SLACK = 0.0
+    FREE = False  #: the seed's path as first found (no search for a better class after it)
     KEPT_NOTE = ("the knots were planned with the seed's timing kept: every window needed at "
                  "one sample closed on the seed's sample")
 
@@ -167,7 +168,7 @@ class KnotNlp(Backend):
         if m > 1:
             self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
                       f"({cp.grid.n} knots for {problem.grid.n} samples)")
-        seed = MilpPathSeed(self.quiet, smooth=False)
+        seed = MilpPathSeed(self.quiet, smooth=False, free=self.FREE)
         path, sols = run_chain(cp, [seed])
         if path.status == "infeasible" and m == 1:  # a proof on the mission grid
             return "grid", (path, sols), t0

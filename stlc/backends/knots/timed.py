@@ -6,7 +6,9 @@ variables that makes each IPOPT iteration dearer and the kinematic guess slower.
 seed has already chosen those times globally.  ``TimedNlp`` plans with them kept, as the
 long-mission planner (``knots``) does, on the mission grid itself (no knots):
 
-1. the MILP seed's path (``MilpPathSeed(smooth=False)``), or its proof that no plan exists;
+1. the MILP seed's path (``MilpPathSeed(smooth=False)``: after the MILP with its choices
+   free has looked for a better class, as in the ``nlp`` chain), or its proof that no plan
+   exists;
 2. ``windows.fix_windows`` narrows every window needed at one sample to the seed's sample
    ± ``TIMING_SLACK_S`` (an ``or`` to its most robust operand): each rewrite keeps a subset
    of the terms of a max, so the narrowed formula is never more robust than the requirement;
@@ -34,6 +36,7 @@ class TimedNlp(KnotNlp):
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor"}),
                                 nodes=ALL_NODES, functions=ALL_FUNCTIONS)
     SLACK = TIMING_SLACK_S
+    FREE = True  #: a short mission affords the MILP's search for a better class (≤ 0.5 s)
     KEPT_NOTE = (f"planned with the seed's timing kept: every window needed at one sample "
                  f"narrowed to the seed's sample ± {TIMING_SLACK_S:g} s")
 

@@ -32,11 +32,12 @@ class MilpPathSeed(KinematicGuess):
     NEXT_LABEL = "the next-best MILP seed (its choices for the violated specs excluded)"
 
     def __init__(self, quiet: bool = True, exclude: tuple = (), smooth: bool = True,
-                 given: tuple | None = None):
-        self.quiet, self.smooth, self.given = quiet, smooth, given
+                 given: tuple | None = None, free: bool = True):
+        self.quiet, self.smooth, self.given, self.free = quiet, smooth, given, free
         self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
         self.choices = None  # this seed's, after ``invert``
-        # smooth=False: the MILP's path as found; given: (paths, record) found before (no MILP)
+        # smooth=False: the MILP's path (with ``free``, after the MILP with its choices free);
+        # given: (paths, record) found before (no MILP)
 
     def solve(self, lowered, problem):
         from stlc.backends.nlp import apart
@@ -74,7 +75,13 @@ class MilpPathSeed(KinematicGuess):
         if proof is None:  # the kinematic NLP, from the seed path when there is one,
             # while the MILP with its choices free looks for a better class apart (rarely
             # found on a handover: then the kinematic NLP runs again from that class)
-            if not self.smooth and paths is not None:
+            if not self.smooth and paths is not None:  # the path, after the MILP with
+                # its choices free has looked for a better class (here, in this child)
+                better, more = resume() if resume is not None and self.free else (None, [])
+                if more:
+                    rec["phases"] += [list(p) for p in more]
+                if better is not None:
+                    paths, rec = better
                 return (paths, rec, None), time.perf_counter() - t0
             t1 = time.perf_counter()
             free = apart.start(resume) if resume is not None else None
