@@ -169,14 +169,15 @@ class KnotNlp(Backend):
             self._say(problem, f"planning on knots every {m * problem.grid.dt:g} s "
                       f"({cp.grid.n} knots for {problem.grid.n} samples)")
         seed = MilpPathSeed(self.quiet, smooth=False, free=self.FREE)
-        path, sols = run_chain(cp, [seed])
+        path, sols = _in_process(cp, seed) if self.FREE == "later" else run_chain(cp, [seed])
         if path.status == "infeasible" and m == 1:  # a proof on the mission grid
             return "grid", (path, sols), t0
         if path.status == "infeasible":  # a proof about the knots only: not reported
             self._say(problem, "the knots' seed found no path; planning on the mission "
                       "grid instead")
             return "grid", self._on_grid(problem), t0
-        given = (seed_paths(path, cp.team, cp.grid.n), dict(path.solver.get("seed", {})))
+        given = (seed_paths(path, cp.team, cp.grid.n), dict(path.solver.get("seed", {})),
+                 seed.resume)
         fixed = self._fixed(cp, path)
         if fixed is not None:
             self._say(problem, self.KEPT_NOTE)
@@ -312,6 +313,20 @@ class KnotNlp(Backend):
             return fine
         sol.notes.append(f"a polish on the mission grid found no better plan ({r2:+.4g})")
         return sol
+
+
+def _in_process(problem: PlanningProblem, seed) -> tuple[Solution, list]:
+    """``seed`` (a ``MilpPathSeed``) run in this process, not apart: its MILP's search for
+    a better class (``seed.resume``) can then run beside the kinematic guess of the seed
+    given its path, in a child forked from this process (as in the ``nlp`` chain)."""
+    from stlc.planning.effort import heartbeat
+
+    with heartbeat(f"{seed.name} running (no verified plan yet)", seed.quiet):
+        c0 = time.process_time()
+        result, dt_s = seed.solve(None, problem)
+        cpu_s = time.process_time() - c0
+    sol = seed.invert((result, dt_s, cpu_s, 0.0), None, problem)
+    return sol, [sol]
 
 
 def _with_seed(sol: Solution, sols: list, slack: float, kept: bool

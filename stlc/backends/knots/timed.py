@@ -6,13 +6,15 @@ variables that makes each IPOPT iteration dearer and the kinematic guess slower.
 seed has already chosen those times globally.  ``TimedNlp`` plans with them kept, as the
 long-mission planner (``knots``) does, on the mission grid itself (no knots):
 
-1. the MILP seed's path (``MilpPathSeed(smooth=False)``: after the MILP with its choices
-   free has looked for a better class, as in the ``nlp`` chain), or its proof that no plan
-   exists;
+1. the MILP seed's path (``MilpPathSeed(smooth=False)``, run in this process), or its
+   proof that no plan exists;
 2. ``windows.fix_windows`` narrows every window needed at one sample to the seed's sample
    ± ``TIMING_SLACK_S`` (an ``or`` to its most robust operand): each rewrite keeps a subset
    of the terms of a max, so the narrowed formula is never more robust than the requirement;
-3. the kinematic guess and the full-dynamics NLP on the narrowed formula, from that path.
+3. the kinematic guess and the full-dynamics NLP on the narrowed formula, from that path:
+   as in the ``nlp`` chain, the guess runs in a forked child while the NLP is built, and
+   beside it the MILP with its choices free looks for a better class, from which the guess
+   runs again (on a two-drone mission it swapped a crossing assignment for the direct one).
 
 The slack lets the kinematic guess and the NLP still move each time a little, which keeps
 the energy of the plan with the windows as written (closed on the seed's sample, paper A's
@@ -36,7 +38,7 @@ class TimedNlp(KnotNlp):
     capabilities = Capabilities(vehicle_models=frozenset({"multirotor"}),
                                 nodes=ALL_NODES, functions=ALL_FUNCTIONS)
     SLACK = TIMING_SLACK_S
-    FREE = True  #: a short mission affords the MILP's search for a better class (≤ 0.5 s)
+    FREE = "later"  #: the MILP's search for a better class runs beside the kinematic guess
     KEPT_NOTE = (f"planned with the seed's timing kept: every window needed at one sample "
                  f"narrowed to the seed's sample ± {TIMING_SLACK_S:g} s")
 

@@ -36,8 +36,10 @@ class MilpPathSeed(KinematicGuess):
         self.quiet, self.smooth, self.given, self.free = quiet, smooth, given, free
         self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
         self.choices = None  # this seed's, after ``invert``
-        # smooth=False: the MILP's path (with ``free``, after the MILP with its choices free);
-        # given: (paths, record) found before (no MILP)
+        # smooth=False: the MILP's path (with ``free``, after the MILP with its choices free
+        # has looked for a better class; "later": that search is left to the seed given the
+        # path, as ``resume``); given: (paths, record[, resume]) found before (no MILP)
+        self.resume = None
 
     def solve(self, lowered, problem):
         from stlc.backends.nlp import apart
@@ -45,8 +47,9 @@ class MilpPathSeed(KinematicGuess):
 
         t0 = time.perf_counter()
         builds = []  # the kinematic NLP, built in a thread while HiGHS runs
-        if self.given is not None:
-            paths, rec, resume = self.given[0], dict(self.given[1]), None
+        if self.given is not None:  # (paths, record[, its search for a better class])
+            paths, rec = self.given[0], dict(self.given[1])
+            resume = self.given[2] if len(self.given) > 2 else None
         else:
             paths, rec, resume = plan(
                 problem, exclude=self.exclude, defer_free=True,
@@ -75,13 +78,15 @@ class MilpPathSeed(KinematicGuess):
         if proof is None:  # the kinematic NLP, from the seed path when there is one,
             # while the MILP with its choices free looks for a better class apart (rarely
             # found on a handover: then the kinematic NLP runs again from that class)
-            if not self.smooth and paths is not None:  # the path, after the MILP with
-                # its choices free has looked for a better class (here, in this child)
-                better, more = resume() if resume is not None and self.free else (None, [])
-                if more:
-                    rec["phases"] += [list(p) for p in more]
-                if better is not None:
-                    paths, rec = better
+            if not self.smooth and paths is not None:
+                if self.free == "later":  # the search for a better class is handed on
+                    self.resume = resume  # (``solve`` ran in-process: ``knots.timed``)
+                elif self.free and resume is not None:  # the MILP with its choices free
+                    better, more = resume()  # looks for a better class, here
+                    if more:
+                        rec["phases"] += [list(p) for p in more]
+                    if better is not None:
+                        paths, rec = better
                 return (paths, rec, None), time.perf_counter() - t0
             t1 = time.perf_counter()
             free = apart.start(resume) if resume is not None else None
