@@ -1,7 +1,7 @@
 """A multirotor's mission on its own grid, planned with the seed's timing kept.
 
-The ``nlp`` chain's NLP decides *when* as well as *where*: every ``eventually``, ``until``
-and ``or`` of the requirement is a smooth max over its whole window, a tree of auxiliary
+The ``nlp`` chain's NLP decides *when* as well as *where*: every ``eventually`` and
+``until`` of the requirement is a smooth max over its whole window, a tree of auxiliary
 variables that makes each IPOPT iteration dearer and the kinematic guess slower.  The MILP
 seed has already chosen those times globally.  ``TimedNlp`` plans with them kept, as the
 long-mission planner (``knots``) does, on the mission grid itself (no knots):

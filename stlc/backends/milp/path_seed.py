@@ -32,7 +32,7 @@ class MilpPathSeed(KinematicGuess):
     NEXT_LABEL = "the next-best MILP seed (its choices for the violated specs excluded)"
 
     def __init__(self, quiet: bool = True, exclude: tuple = (), smooth: bool = True,
-                 given: tuple | None = None, free: bool = True):
+                 given: tuple | None = None, free: bool | str = True):
         self.quiet, self.smooth, self.given, self.free = quiet, smooth, given, free
         self.exclude = tuple(exclude)  # earlier seeds' choices (no-good cuts)
         self.choices = None  # this seed's, after ``invert``
