@@ -292,14 +292,21 @@ def _timing_free(problem, first, quiet: bool):
               "from the `timed` chain; planning again with the times free: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
     sol = _next_choices(problem, chain, _run_verified(problem, chain), quiet)
+    return _keep_better(first, sol, "planned with the times free: the `timed` chain's plan "
+                        f"(the seed's timing kept) had exact robustness "
+                        f"{first.robustness_exact:.6g}",
+                        "the `nlp` chain, tried with the times free, found no better plan")
+
+
+def _keep_better(first, sol, took: str, kept: str):
+    """Of two verified plans, the one with the larger exact robustness (ties: ``first``),
+    noted: ``took`` when ``sol`` wins, ``kept`` and its robustness when ``first`` stays;
+    ``sol``'s record says which chain ran first."""
+    sol.solver.chain.fallback_from = first.solver.chain
     if _better(sol.robustness_exact, first.robustness_exact):
-        sol.solver.chain.fallback_from = first.solver.chain
-        sol.notes.append(f"planned with the times free: the `timed` chain's plan (the "
-                         f"seed's timing kept) had exact robustness "
-                         f"{first.robustness_exact:.6g}")
+        sol.notes.append(took)
         return sol
-    first.notes.append("the `nlp` chain, tried with the times free, found no better plan "
-                       f"(exact robustness {sol.robustness_exact:.6g})")
+    first.notes.append(f"{kept} (exact robustness {sol.robustness_exact:.6g})")
     return first
 
 
@@ -315,16 +322,10 @@ def _fallback(problem, first, quiet: bool):
               f"({stopped}); falling back to chain `{chain.name}`: "
               + " → ".join(b.name for b in chain.backends), file=sys.stderr)
     sol = _run_verified(problem, chain)
-    sol.solver.chain.fallback_from = first.solver.chain
-    a, b = first.robustness_exact, sol.robustness_exact
-    if _better(b, a):  # the NLP's plan is strictly better
-        sol.notes.append(f"the exact MILP stopped without a satisfying plan "
-                         f"({stopped}); this plan is the `nlp` "
-                         f"chain's (local, not a global optimum)")
-        return sol
-    first.notes.append("the `nlp` chain, tried after the MILP stopped, found no better plan "
-                       f"(exact robustness {b:.6g})")
-    return first
+    return _keep_better(first, sol, f"the exact MILP stopped without a satisfying plan "
+                        f"({stopped}); this plan is the `nlp` chain's (local, not a global "
+                        f"optimum)", "the `nlp` chain, tried after the MILP stopped, found no "
+                        "better plan")
 
 
 # ------------------------------------------------- what the orderers ask of the planners
