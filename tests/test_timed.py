@@ -78,3 +78,58 @@ def test_a_forced_nlp_chain_decides_the_times_itself(handover):
     program, mission = handover
     chain = strategy.select(from_mission(program, mission), "nlp")
     assert [b.name for b in chain.backends] == ["milp seed", "casadi/ipopt"]
+
+
+SLOW = """\
+vehicle q : multirotor {
+  mass    = 1.4 kg
+  inertia = diag(1.2e-2, 1.2e-2, 2.2e-2) kg*m^2
+  c_f     = 11.5e-4
+  c_tau   = 2.38e-5
+  force   = [0.2 N, 9 N]
+  rotors  = quadrotor(arm = 0.23 m)
+  start { pos = (0, 0, 1) m; att = (0, 0, 0) deg }
+}
+scenario {
+  workspace = box((-1, -1, 0), (4, 4, 3)) m
+  region far = box((1.6, 1.6, 0.8), (2.0, 2.0, 1.2)) m
+}
+mission slow {
+  vehicles = [q]
+  horizon = 6 s
+  step = 0.1 s
+  spec safe = always[0, 6] (q.pos in workspace and q.speed <= 0.3 m/s)
+  spec reach = eventually[4, 5] always[0, 1] (q.pos in far)
+  require safe and reach
+  minimize 0.5 * energy - robustness
+}
+"""
+
+
+def test_without_a_seed_path_that_reaches_kappa_no_timing_is_kept_nor_planned_twice(
+        tmp_path, monkeypatch):
+    # the far box (at least 2.26 m away) in at most 5 s at 0.3 m/s (1.5 m) is out of
+    # reach, and the proof's relaxation does not show it: the MILP finds no path, so there
+    # is no timing to keep; the plan is the `nlp` chain's first one, and the `nlp` chain
+    # does not plan the mission again (its seed has no choices to try others of)
+    from stlc.backends.nlp.backend import CasadiNlp
+
+    calls = []
+    real = CasadiNlp.solve
+
+    def counted(self, lowered, problem):
+        calls.append(problem.name)
+        return real(self, lowered, problem)
+
+    monkeypatch.setattr(CasadiNlp, "solve", counted)
+    f = tmp_path / "slow.stl"
+    f.write_text(SLOW)
+    program = pipeline.load(str(f)).program
+    with deadline.limited(LIMIT_S):
+        problem, sol = pipeline.plan(program, program.missions["slow"])
+    assert sol.solver["seed_timing"]["kept"] is False
+    rec = sol.solver["chain"]
+    assert rec["name"] == "timed" and rec.get("fallback_from") is None
+    assert len(calls) == 1
+    assert sol.status == "violated"
+    assert _exact(problem, sol) == sol.robustness_exact < problem.threshold

@@ -145,7 +145,7 @@ def plan(problem, chain: Chain, quiet: bool = True):
     if _falls_back(chain, sol):
         sol = _fallback(problem, sol, quiet)
     elif _untimed(chain, sol):
-        sol = _timing_free(problem, sol, quiet)
+        sol = _timing_free(problem, chain, sol, quiet)
     if sol.status not in ("satisfied", "infeasible") and not deadline.solve_expired():
         from stlc.backends.milp.conflict import explain_infeasible
         from stlc.planning.frame import to_local
@@ -282,10 +282,17 @@ def _untimed(chain, sol) -> bool:
             and bool(sol.solver.get("seed_timing")) and not deadline.solve_expired())
 
 
-def _timing_free(problem, first, quiet: bool):
+def _timing_free(problem, timed, first, quiet: bool):
     """Plan ``problem`` with the ``nlp`` chain (and its further seeds) after the ``timed``
     chain's plan missed κ; the verified plan with the larger exact robustness is kept
-    (ties: the first)."""
+    (ties: the first).  A plan that kept no timing already is the ``nlp`` chain's first
+    plan: only the further seeds of its MILP seed follow."""
+    if not first.solver.get("seed_timing", {}).get("kept", True):
+        seed = timed.backends[0].seed
+        if seed is None:
+            return first
+        nlp = Chain("nlp", [seed, registry()["casadi"](quiet=quiet)], timed.forced)
+        return _next_choices(problem, nlp, first, quiet)
     chain = select(problem, "nlp", quiet)
     if not quiet:
         print(f"{problem.mission.name}: exact robustness {first.robustness_exact:+.4f} < κ "

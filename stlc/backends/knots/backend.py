@@ -125,10 +125,16 @@ class KnotNlp(Backend):
 
     def __init__(self, quiet: bool = True):
         self.quiet = quiet
+        self.seed = None  # the MILP seed of the last ``solve``
 
     def factor(self, problem: PlanningProblem) -> int:
         """The knots' factor m (``knot_factor``)."""
         return knot_factor(problem)
+
+    def keeps(self, problem: PlanningProblem, path: Solution) -> bool:
+        """Is the seed ``path``'s timing worth keeping?  On knots always (the formula as
+        written follows if the plan misses κ)."""
+        return True
 
     def accepts(self, problem: PlanningProblem) -> list[Diagnostic]:
         from stlc.backends.base import unsupported
@@ -176,9 +182,10 @@ class KnotNlp(Backend):
             self._say(problem, "the knots' seed found no path; planning on the mission "
                       "grid instead")
             return "grid", self._on_grid(problem), t0
+        self.seed = seed  # its choices give the ``nlp`` chain's further seeds (``strategy``)
         given = (seed_paths(path, cp.team, cp.grid.n), dict(path.solver.get("seed", {})),
                  seed.resume)
-        fixed = self._fixed(cp, path)
+        fixed = self._fixed(cp, path) if self.keeps(cp, path) else None
         if fixed is not None:
             self._say(problem, self.KEPT_NOTE)
             sol_c, sols = run_chain(fixed, [MilpPathSeed(self.quiet, given=given),

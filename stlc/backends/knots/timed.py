@@ -20,7 +20,10 @@ The slack lets the kinematic guess and the NLP still move each time a little, wh
 the energy of the plan with the windows as written (closed on the seed's sample, paper A's
 handovers used 0.07–0.45 % more energy).  The exact monitor judges the plan against the
 requirement as written, as every plan.  A plan that misses κ is planned again by the ``nlp``
-chain (``strategy``), which decides the times itself and tries further seeds.
+chain (``strategy``), which decides the times itself and tries further seeds.  Without a
+MILP path that reaches κ there is no timing worth keeping: the plan is then the ``nlp``
+chain's first plan (the formula as written from the seed), and the strategy tries only its
+further seeds.
 """
 
 from __future__ import annotations
@@ -55,3 +58,10 @@ class TimedNlp(KnotNlp):
 
     def factor(self, problem: PlanningProblem) -> int:
         return 1
+
+    def keeps(self, problem: PlanningProblem, path) -> bool:
+        """Only the timing of a MILP path that reaches κ: without one (no path, or a path
+        at a bound below κ: a mission that is hard or impossible) the plan is the ``nlp``
+        chain's, and the strategy tries its further seeds."""
+        rec = path.solver.get("seed") or {}
+        return "fallback" not in rec and rec.get("robustness", -1.0) >= problem.threshold
