@@ -34,6 +34,12 @@ def _env():
     return {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
 
 
+def _python(script: str) -> subprocess.CompletedProcess:
+    """``script`` run by a fresh interpreter with the tests' environment."""
+    return subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=_env(), timeout=60)
+
+
 def test_time_limit_writes_verified_plan_in_time(tmp_path):
     out = tmp_path / "out"
     # the clock starts once stlc's command line is imported: measure that start-up here,
@@ -179,8 +185,7 @@ def test_watchdog_writer_sees_the_planning_threads_limit():
         "with deadline.limited(0.2, overrun=writer):\n"
         "    time.sleep(20)\n"
         "print('not reached')\n")
-    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                       env=_env(), timeout=60)
+    r = _python(script)
     assert r.returncode == 3, r.stderr
     assert r.stdout.split() == ["writer", "True", "0.2", "False"]
 
@@ -201,7 +206,6 @@ def test_watchdog_waits_for_an_import_to_finish(tmp_path):
         "            pass\n"
         "except deadline.TimeLimitReached:\n"
         "    print('stopped', sys.modules['slow_module'].DONE, flush=True)\n")
-    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                       env=_env(), timeout=60)
+    r = _python(script)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["stopped", "True"]

@@ -63,6 +63,10 @@ class _Fixer:
         b = steps_floor(hi, self.dt) if np.isfinite(hi) else self.n
         return k + steps_ceil(lo, self.dt), min(k + b, self.n - 1)
 
+    def around(self, f: ir.Eventually | ir.Until, d: float) -> tuple[float, float]:
+        """``f``'s window narrowed to the offset d ± ``slack``, clipped to it as written."""
+        return max(f.lo, d - self.slack), min(f.hi, d + self.slack)
+
     def at(self, f: ir.Formula, k: int) -> ir.Formula:
         """``f`` needed at sample ``k`` only."""
         if isinstance(f, ir.And):
@@ -83,7 +87,7 @@ class _Fixer:
             d = (j - k) * self.dt
             self.fixed += 1
             if self.slack > 0:
-                lo, hi = max(f.lo, d - self.slack), min(f.hi, d + self.slack)
+                lo, hi = self.around(f, d)
                 return ir.Eventually(lo, hi, self.at(f.arg, j), f.span)
             return ir.Eventually(d, d, self.at(f.arg, j), f.span)
         if isinstance(f, ir.Until):
@@ -97,7 +101,7 @@ class _Fixer:
             d = (j - k) * self.dt
             self.fixed += 1
             if self.slack > 0:
-                lo, hi = max(f.lo, d - self.slack), min(f.hi, d + self.slack)
+                lo, hi = self.around(f, d)
                 return ir.Until(lo, hi, f.left, self.at(f.right, j), f.span)
             return ir.And((ir.Eventually(d, d, self.at(f.right, j), f.span),
                            ir.Always(0.0, d, f.left, f.span)), f.span)
