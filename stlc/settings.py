@@ -11,6 +11,10 @@ constants of the modules that make them, or typed options of the problem and bac
   (``ipopt_options``; read once per process, so a cached NLP never meets other options);
 * ``STLC_MAP_THREADS`` — threads of the derivatives' map (``map_threads``; a sweep's
   local cluster gives each worker process its share of the cores);
+* ``STLC_CACHE_DIR`` — where compiled functions are kept (``cache_dir``; default
+  ``$XDG_CACHE_HOME/stlc``, else ``~/.cache/stlc``); ``STLC_COMPILE=0`` keeps every function
+  in CasADi's virtual machine (``compile_functions``), ``CC`` names the C compiler
+  (``c_compiler``; ``stlc.solvers.codegen``);
 * ``STLC_NO_FORK`` — solve "apart" work in-process instead of in a forked child
   (``no_fork``); a caller that must not fork (a Dask worker's task) says so with
   ``override(no_fork=True)`` for its own work instead of changing the environment.
@@ -67,6 +71,25 @@ def map_threads(default: int) -> int:
     """``STLC_MAP_THREADS`` when it is a whole number, else ``default``."""
     cap = _get("map_threads", "STLC_MAP_THREADS")
     return int(cap) if cap.isdigit() else default
+
+
+def cache_dir() -> str:
+    """``STLC_CACHE_DIR``, else ``$XDG_CACHE_HOME/stlc``, else ``~/.cache/stlc``."""
+    d = _get("cache_dir", "STLC_CACHE_DIR")
+    if d:
+        return d
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "stlc")
+
+
+def compile_functions() -> bool:
+    """False when ``STLC_COMPILE`` is ``0``: no function is compiled to C."""
+    return _get("compile", "STLC_COMPILE") != "0"
+
+
+def c_compiler() -> str:
+    """``CC`` (empty when unset)."""
+    return _get("c_compiler", "CC")
 
 
 def default_time_limit(default: float) -> float:

@@ -28,6 +28,7 @@ import casadi as ca
 import numpy as np
 
 from stlc import settings, vehicles
+from stlc.solvers import codegen
 from stlc.vehicles import dynamics
 
 CHUNK_ROWS = 256
@@ -248,12 +249,15 @@ def nlpsol_options(w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, layouts: list, dt: fl
         fz = step(xs, us)
         hf = ca.triu(ca.hessian(-ca.dot(mu, fz), z)[0])
         jf = -ca.jacobian(fz, z)
+        # (``step`` stays CasADi's: nlpsol differentiates ``g`` once, to little effect)
+        hf_c, jf_c = codegen.compiled([ca.Function("hf", [xs, us, mu], [hf]),
+                                       ca.Function("jf", [xs, us], [jf])], "step")
         X = ca.reshape(x[L.x_slice], nx, -1)
         U = ca.reshape(x[L.u_slice], nu, n_int)
         dyn_mx.append(ca.vec(X[:, 1:] - _map(step, n_int)(X[:, :-1], U)))
         MU = ca.reshape(lg[row0:row0 + nx * n_int], nx, n_int)
-        h_nz.append(_map(ca.Function("hf", [xs, us, mu], [hf]), n_int)(X[:, :-1], U, MU).nz[:])
-        j_nz.append(_map(ca.Function("jf", [xs, us], [jf]), n_int)(X[:, :-1], U).nz[:])
+        h_nz.append(_map(hf_c, n_int)(X[:, :-1], U, MU).nz[:])
+        j_nz.append(_map(jf_c, n_int)(X[:, :-1], U).nz[:])
         hr, hc = (np.array(a, dtype=np.int64) for a in hf.sparsity().get_triplet())
         jr, jc = (np.array(a, dtype=np.int64) for a in jf.sparsity().get_triplet())
         for k in range(n_int):

@@ -39,8 +39,8 @@ GUESS_MAX_ITER = 80
 #: moving (relative change < 1e-5 for 5 iterations) with the path consistent to 1e-2.  Its
 #: tight test never ended on plateaus where steps of ~1e-2 left second-order residuals of
 #: ~1e-3 (handover_above: iterations 114–192 at the same objective to 7 digits)
-GUESS_ACCEPTABLE = {"ipopt.acceptable_tol": 1e-2, "ipopt.acceptable_iter": 5,
-                    "ipopt.acceptable_constr_viol_tol": 1e-2,
+GUESS_ACCEPTABLE = {"ipopt.acceptable_tol": 3e-2, "ipopt.acceptable_iter": 5,
+                    "ipopt.acceptable_constr_viol_tol": 3e-2,
                     "ipopt.acceptable_obj_change_tol": 1e-5}
 
 
