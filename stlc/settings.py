@@ -11,8 +11,9 @@ constants of the modules that make them, or typed options of the problem and bac
   (``ipopt_options``; read once per process, so a cached NLP never meets other options);
 * ``STLC_MAP_THREADS`` — threads of the derivatives' map (``map_threads``; a sweep's
   local cluster gives each worker process its share of the cores);
-* ``STLC_CACHE_DIR`` — where compiled functions are kept (``cache_dir``; default
-  ``$XDG_CACHE_HOME/stlc``, else ``~/.cache/stlc``); ``STLC_COMPILE=0`` keeps every function
+* ``STLC_CACHE_DIR`` — what a run may keep for the next (``cache_dir``: compiled functions,
+  the parser's tables, the report's compiled templates; default ``$XDG_CACHE_HOME/stlc``,
+  else ``~/.cache/stlc``); ``STLC_COMPILE=0`` keeps every function
   in CasADi's virtual machine (``compile_functions``), ``CC`` names the C compiler
   (``c_compiler``; ``stlc.solvers.codegen``);
 * ``STLC_NO_FORK`` — solve "apart" work in-process instead of in a forked child
@@ -80,6 +81,17 @@ def cache_dir() -> str:
         return d
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return os.path.join(base, "stlc")
+
+
+def writable_cache_dir() -> str | None:
+    """``cache_dir()``, created if it is missing, or None when it cannot be written (then
+    nothing is cached: every cache of ``stlc`` is an optimisation)."""
+    d = cache_dir()
+    try:
+        os.makedirs(d, exist_ok=True)
+    except OSError:
+        return None
+    return d if os.access(d, os.W_OK | os.X_OK) else None
 
 
 def compile_functions() -> bool:

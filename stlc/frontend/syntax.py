@@ -9,12 +9,14 @@ line-oriented without making formulas painful.  Syntax errors become diagnostics
 from __future__ import annotations
 
 import functools
+import os
 from importlib import resources
 from pathlib import Path as FsPath
 
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, VisitError
 
+from stlc import settings
 from stlc.diagnostics import Diagnostic, Span, StlcError, normalize_newlines, source_lines
 from stlc.frontend import ast
 from stlc.frontend.postlex import MAX_DEPTH, DepthError, PostLex
@@ -37,8 +39,13 @@ _POSTLEX = PostLex()
 
 @functools.cache
 def _parser() -> Lark:
+    """The LALR parser; its tables are kept in the cache directory (lark's own ``cache``:
+    checked against the grammar and lark's version, rebuilt when they differ or cannot be
+    read; 0.08 s to build, a few ms to load)."""
+    d = settings.writable_cache_dir()
+    cache = os.path.join(d, "grammar.lark-tables") if d else False
     return Lark(grammar_text(), parser="lalr", lexer="contextual", postlex=_POSTLEX,
-                propagate_positions=True, maybe_placeholders=True)
+                propagate_positions=True, maybe_placeholders=True, cache=cache)
 
 
 # ---------------------------------------------------------------- parse tree → AST

