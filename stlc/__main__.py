@@ -1,7 +1,5 @@
-"""``python -m stlc``: the command line (``stlc.cli.main``)."""
+"""``python -m stlc``: the command line (``stlc.cli.run``)."""
 
-import sys
+from stlc.cli import run
 
-from stlc.cli import main
-
-sys.exit(main())
+run()
