@@ -1,4 +1,4 @@
-"""``stlc.backends.nlp.apart``: a solve in a forked child gives the same result as in-process,
+"""``stlc.apart``: a solve in a forked child gives the same result as in-process,
 falls back to in-process when the child fails, and stops at once on Ctrl-C."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from stlc import interrupt
-from stlc.backends.nlp import apart
+from stlc import apart
 
 PARENT = os.getpid()
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from stlc import pipeline
-from stlc.backends.nlp import apart
+from stlc import apart
 from stlc.backends.nlp import schedule
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -7,6 +7,7 @@ The units, lowest first (``LAYERS``)::
     settings   the one reader of the process environment
     ground     stlc (the package), diagnostics, interrupt, strictjson, exitcodes, schemas
                (JSON data), deadline
+    apart      work in a forked child, beside the parent's
     limits     resource limits: size-limited reads, memory budget, instance limits
     frontend   source text → AST
     vehicles   declared data, dynamics, geometry and behaviour of each vehicle model
@@ -46,6 +47,7 @@ LAYERS: list[set[str]] = [
     {"settings"},
     {"stlc", "diagnostics", "interrupt", "strictjson", "exitcodes", "schemas", "deadline",
      "lazy"},
+    {"apart"},
     {"limits"},
     {"frontend"},
     {"vehicles"},

@@ -82,7 +82,7 @@ def test_the_notes_follow_where_the_routes_came_from():
 
 
 def test_a_record_crosses_a_process_boundary():
-    """A solve apart (``stlc.backends.nlp.apart``) or a sweep worker pickles its record."""
+    """A solve apart (``stlc.apart``) or a sweep worker pickles its record."""
     import copy
     import pickle
 

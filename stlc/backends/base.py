@@ -91,7 +91,7 @@ class Backend:
 
     def start(self, lowered: Any, problem: PlanningProblem) -> Callable[[], Any]:
         """Begin ``solve``; the returned function waits for its result.  By default the solve
-        runs now; a backend that can solve apart (``stlc.backends.nlp.apart``) overrides this."""
+        runs now; a backend that can solve apart (``stlc.apart``) overrides this."""
         raw = self.solve(lowered, problem)
         return lambda: raw
 

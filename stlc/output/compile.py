@@ -45,10 +45,15 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
             fh.write(solution_json(sol, mission))
         with open(os.path.join(tmp, "trajectory.csv"), "w") as fh:
             fh.write(trajectory_csv(sol))
-        if sol.times.size:  # PX4 / MRS setpoints and a ROS 2 bag (``stlc.flight.export``)
+        flight_done = None
+        if sol.times.size:  # PX4 / MRS setpoints and a ROS 2 bag (``stlc.flight.export``),
+            # written by a forked child while this process renders the report (≈ 0.12 s
+            # each, most of it loading rosbags' message types and the templates)
+            from stlc import apart
             from stlc.flight.export import write_flight_outputs
 
-            write_flight_outputs(tmp, program, mission, sol.times, sol.channels)
+            flight_done = apart.start(write_flight_outputs, tmp, program, mission, sol.times,
+                                      sol.channels)
         if sol.routes:
             from stlc.backends.strategy import team_plan
             from stlc.team.refine import per_drone_csv
@@ -65,8 +70,15 @@ def write_files(outdir: str, program: model.Program, mission: model.Mission, sol
                 from stlc.analysis.risk import save_samples
 
                 save_samples(os.path.join(tmp, "risk_samples.npz"), sol.risk_results)
-        write_report(os.path.join(tmp, "report.html"), program, mission, sol,
-                     simulation=simulation, flight=flight)
+        try:
+            write_report(os.path.join(tmp, "report.html"), program, mission, sol,
+                         simulation=simulation, flight=flight)
+        except BaseException:
+            if flight_done is not None:
+                flight_done.cancel()
+            raise
+        if flight_done is not None:
+            flight_done()
 
 
 def summary(sol: Solution, outdir: str) -> None:

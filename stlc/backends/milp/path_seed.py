@@ -42,7 +42,7 @@ class MilpPathSeed(KinematicGuess):
         self.resume = None
 
     def solve(self, lowered, problem):
-        from stlc.backends.nlp import apart
+        from stlc import apart
         from stlc.backends.nlp import schedule
 
         t0 = time.perf_counter()

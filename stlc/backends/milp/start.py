@@ -74,7 +74,7 @@ class CoarseStart(Backend):
 
     def start(self, lowered, problem: PlanningProblem):
         """The coarse MILP runs in a forked child while the exact backend builds."""
-        from stlc.backends.nlp import apart
+        from stlc import apart
 
         wait = apart.start(self.solve, lowered, problem)
 

@@ -58,7 +58,7 @@ class KinematicGuess(Backend):
 
     def start(self, lowered, problem: PlanningProblem):
         """The guess is computed in a forked child while the chain lowers the full NLP."""
-        from stlc.backends.nlp import apart
+        from stlc import apart
 
         wait = apart.start(self.solve, lowered, problem)
 

@@ -208,7 +208,7 @@ def solve_mission(problem: PlanningProblem, prob: NlpProblem, inv: InverseData,
         ahead = None  # the robustness-only compare plans, solved apart from the guess
         if not warm and COMPARE_APART and any(
                 v is not None and _only_rho(v) for _, v in problem.comparisons):
-            from stlc.backends.nlp import apart
+            from stlc import apart
 
             ahead = apart.start(_guess_compares, prob, inv, problem, w0)
         try:

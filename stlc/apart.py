@@ -1,10 +1,12 @@
-"""Run a backend's solve in a forked child process, beside the parent's work.
+"""Run work in a forked child process, beside the parent's work.
 
-The seed backend of a single-vehicle mission (the kinematic guess, ≈ 3 s) and the lowering of
-the next backend (the full NLP, ≈ 3 s) do not depend on each other, so ``run_chain`` lowers
-the NLP while the guess is computed apart.  CasADi's symbolic layer is not thread-safe
-(SX/MX reference counts are shared), so the two cannot be threads; a forked child has its
-own copy of everything and sends its result back pickled through a pipe.
+The seed backend of a single-vehicle mission (the kinematic guess) and the lowering of the
+next backend (the full NLP) do not depend on each other, so ``run_chain`` lowers the NLP
+while the guess is computed apart; the compile's outputs write the flight-stack files apart
+while the report is rendered.  CasADi's symbolic layer is not thread-safe (SX/MX reference
+counts are shared) and Python's own work holds one interpreter, so the two cannot be
+threads; a forked child has its own copy of everything and sends its result back pickled
+through a pipe.
 
 ``start(fn, *args)`` forks and returns a waiter; calling it returns ``fn(*args)`` and the
 child's CPU seconds (``waiter.cancel()`` kills the child instead).  Where ``fork`` is
