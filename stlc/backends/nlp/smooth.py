@@ -9,6 +9,10 @@
 * ``init`` — a ``casadi.Function`` from numeric channel/parameter/λ values to the aux values
   that make every constraint hold (the un-lifted smooth values) and the un-lifted root.
 
+One pass lowers the formula over placeholder channels: the NLP's rows are its rows with the
+actual channels substituted, and ``init`` its aux definitions resolved into one another
+(``casadi.substitute_inplace``: each reads only earlier aux).
+
 Semantics (the numpy reference ``stlc.analysis.smooth`` computes the same numbers): predicates are
 their expression (``nlp.expr``); ``and``/``always``/the inner min of ``until`` use the
 smooth min, ``or``/``eventually``/the outer max of ``until`` the smooth max of ``method``
@@ -92,9 +96,8 @@ __all__ = ["LoweringError", "lower_robustness", "LOWER", "BIG"]
 
 
 class _Lowerer:
-    """One pass over the formula.  ``mode``: ``"none"`` (no lifting), ``"shadow"`` (decide
-    lifts like ``"aux"`` but keep the expressions, recording them as aux initial values) or
-    ``"aux"`` (introduce aux variables and constraints)."""
+    """One pass over the formula.  ``mode``: ``"none"`` (no lifting) or ``"aux"`` (introduce
+    aux variables and constraints, and record each one's defining value in ``defs``)."""
 
     def __init__(self, grid: TimeGrid, env: ExprEnv, mode: str, dyadic: bool, lift_span: int,
                  hypograph: bool = False, lam_scaling: bool = False):
@@ -105,7 +108,7 @@ class _Lowerer:
         self.min_alg, self.max_alg = MinAlg(), max_alg(env.method)
         self.rows: dict[ir.Formula, Row] = {}
         self.aux: list[ca.SX] = []
-        self.init: list[ca.SX] = []
+        self.defs: list[ca.SX] = []  # each aux variable's defining value
         self.g: list[ca.SX] = []
         self.h: list[ca.SX] = []
         self.operands = 0
@@ -126,19 +129,16 @@ class _Lowerer:
         node being lowered); otherwise, and for ``"eq"`` components, an equality."""
         if self.mode == "none" or v.span <= self.lift_span:
             return v
-        if self.mode == "shadow":
-            self.init.extend(c.T for c in v.comps)
-            self._last_lift = (v.comps, v.comps, [self.init] * len(v.comps))
-            return Val(v.comps, 1)
         syms, lists = [], []
         for c, kind in zip(v.comps, kinds):
             r = ca.SX.sym(f"r{len(self.aux)}", 1, c.numel())
             self.aux.append(r.T)
+            self.defs.append(c.T)
             hypo = kind == "ineq" and self.hypograph and (self.mono if mono is None else mono)
             lists.append(self.g if hypo else self.h)
             lists[-1].append((c - r).T)
             syms.append(r)
-        self._last_lift = (tuple(syms), v.comps, [self.aux] + lists)
+        self._last_lift = (tuple(syms), v.comps, [self.aux, self.defs] + lists)
         return Val(tuple(syms), 1)
 
     def finish(self, alg: Alg, v: Val, mono: bool | None = None) -> Val:
@@ -388,26 +388,35 @@ def lower_robustness(f: ir.Formula, grid: TimeGrid, channels: Mapping[str, ca.SX
         inputs.append(ph_lam)
         names.append(LAM)
 
-    shadow = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "shadow" if lift else "none",
-                      dyadic, lift_span, lam_scaling=lam_scaling)
-    root0 = shadow.run(f)
-    aux0 = ca.vertcat(*shadow.init) if shadow.init else ca.SX(0, 1)
-    init = ca.Function("robustness_init", inputs, [aux0, root0], names, ["aux", "root"])
-
+    actual = [channels[s] for s in sigs] + [params[p] for p in pars if _is_symbolic(params[p])]
+    if _is_symbolic(lam):
+        actual.append(lam)
     if lift:
-        chans = {s: ca.SX(channels[s]) for s in sigs}
-        lw = _Lowerer(grid, ExprEnv(chans, dict(params), lam, method), "aux", dyadic, lift_span,
+        # one pass over the placeholders: the NLP's rows are its rows with the actual
+        # channels substituted, and the initial values its aux definitions resolved into
+        # each other (each reads only earlier aux), a function of the inputs alone
+        lw = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "aux", dyadic, lift_span,
                       hypograph, lam_scaling)
-        root = lw.run(f)
+        root0 = lw.run(f)
         aux = ca.vertcat(*lw.aux) if lw.aux else ca.SX(0, 1)
+        defs = ca.vertcat(*lw.defs) if lw.defs else ca.SX(0, 1)
         g = ca.vertcat(*lw.g) if lw.g else ca.SX(0, 1)
         h = ca.vertcat(*lw.h) if lw.h else ca.SX(0, 1)
+        root = root0
+        if inputs:
+            root, g, h = ca.substitute([root0, g, h], [ca.vec(x) for x in inputs],
+                                       [ca.vec(ca.SX(x)) for x in actual])
+        aux0, root_in = defs, root0
+        if aux.numel():
+            aux0, root_in = ca.substitute_inplace([aux], [defs], [root0], False)
+            aux0, root_in = aux0[0], root_in[0]
+        init = ca.Function("robustness_init", inputs, [aux0, root_in], names, ["aux", "root"])
     else:
-        lw = shadow
-        actual = [channels[s] for s in sigs] + [params[p] for p in pars
-                                                if _is_symbolic(params[p])]
-        if _is_symbolic(lam):
-            actual.append(lam)
+        lw = _Lowerer(grid, ExprEnv(ph_ch, ph_par, ph_lam, method), "none", dyadic,
+                      lift_span, lam_scaling=lam_scaling)
+        root0 = lw.run(f)
+        init = ca.Function("robustness_init", inputs, [ca.SX(0, 1), root0], names,
+                           ["aux", "root"])
         root = ca.substitute([root0], [ca.vec(x) for x in inputs],
                              [ca.vec(ca.SX(x)) for x in actual])[0] if inputs else root0
         aux = g = h = ca.SX(0, 1)
