@@ -18,6 +18,9 @@ def run() -> None:
     argv = sys.argv[1:]
     code = main(argv)
     if argv and argv[0] in QUICK_EXIT:
+        codegen = sys.modules.get("stlc.solvers.codegen")
+        if codegen is not None:  # (what ``atexit`` would do)
+            codegen.start_pending()
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):
                 stream.flush()
