@@ -13,9 +13,9 @@ constants of the modules that make them, or typed options of the problem and bac
   local cluster gives each worker process its share of the cores);
 * ``STLC_CACHE_DIR`` — what a run may keep for the next (``cache_dir``: compiled functions,
   the parser's tables, the report's compiled templates; default ``$XDG_CACHE_HOME/stlc``,
-  else ``~/.cache/stlc``); ``STLC_COMPILE=0`` keeps every function
-  in CasADi's virtual machine (``compile_functions``), ``CC`` names the C compiler
-  (``c_compiler``; ``stlc.solvers.codegen``);
+  else ``~/.cache/stlc``); ``STLC_COMPILE=0`` keeps every function in CasADi's virtual
+  machine (``compile_functions``); ``CC`` names the C compiler (``c_compiler``;
+  ``stlc.solvers.codegen``);
 * ``STLC_NO_FORK`` — solve "apart" work in-process instead of in a forked child
   (``no_fork``); a caller that must not fork (a Dask worker's task) says so with
   ``override(no_fork=True)`` for its own work instead of changing the environment.

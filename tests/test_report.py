@@ -838,3 +838,22 @@ def test_solver_details_are_spelled_out_not_python():
     assert _plain(phases) == "first plan, 0.25, True; better class (choices free), 1.5, False"
     assert _plain({"grid": 0.5, "binaries": 120}) == "grid: 0.5; binaries: 120"
     assert _plain([]) == "—" and _plain({}) == "—"
+
+
+def test_the_templates_cache_going_away_only_costs_a_compile(tmp_path):
+    import shutil
+
+    import jinja2
+
+    from stlc.output.report.render import _BytecodeCache
+
+    d = tmp_path / "cache"
+    d.mkdir()
+    env = jinja2.Environment(loader=jinja2.DictLoader({"t": "{{ x }}!"}),
+                             bytecode_cache=_BytecodeCache(str(d)))
+    assert env.get_template("t").render(x=1) == "1!"
+    assert any(p.name.startswith("__jinja2_") for p in d.iterdir())  # kept for the next
+    shutil.rmtree(d)  # the user deletes the cache while a run goes on
+    env2 = jinja2.Environment(loader=jinja2.DictLoader({"t": "{{ x }}?"}),
+                              bytecode_cache=_BytecodeCache(str(d)))
+    assert env2.get_template("t").render(x=2) == "2?"

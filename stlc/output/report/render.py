@@ -13,6 +13,7 @@ risk histograms; ``risk.json`` alone holds only their summary.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -43,6 +44,19 @@ class ReportError(Exception):
     """The report could not be rendered (e.g. plotly's JavaScript bundle is missing)."""
 
 
+class _BytecodeCache(jinja2.FileSystemBytecodeCache):
+    """jinja2's cache of compiled templates, for which a folder that went away or cannot be
+    written only means compiling them again."""
+
+    def load_bytecode(self, bucket) -> None:
+        with contextlib.suppress(OSError):
+            super().load_bytecode(bucket)
+
+    def dump_bytecode(self, bucket) -> None:
+        with contextlib.suppress(OSError):
+            super().dump_bytecode(bucket)
+
+
 @functools.lru_cache(maxsize=1)
 def _environment() -> jinja2.Environment:
     """The templates' environment; their compiled form is kept in the cache directory
@@ -50,7 +64,7 @@ def _environment() -> jinja2.Environment:
     d = settings.writable_cache_dir()
     return jinja2.Environment(
         loader=jinja2.PackageLoader("stlc.output.report", "templates"),
-        bytecode_cache=jinja2.FileSystemBytecodeCache(d) if d else None,
+        bytecode_cache=_BytecodeCache(d) if d else None,
         autoescape=True,
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
