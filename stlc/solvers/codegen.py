@@ -14,8 +14,8 @@ compiled once per machine.  A compile takes 2–8 s (the larger the RK4 step, th
 more than a handover's whole plan, so the run that finds no library does not wait for it:
 it plans with CasADi's own functions and, as it ends (``start_pending``), starts the
 compiler in the background at the lowest priority; the runs after it load the library.
-(Started beside the plan, even at the lowest priority, the compiler slowed a two-drone
-mission's energy stage from 4.3 to 5.7 s: the machine's two cores share one physical core.)  The compiler writes under a temporary
+Not beside the plan: where two cores share one physical core even the lowest priority
+takes from it (a two-drone mission's energy stage: 4.3 → 5.7 s).  The compiler writes under a temporary
 name that is then renamed, so a reader never sees a partial library, and a compile that is
 under way is not started twice.  Without a compiler, when it fails or with
 ``STLC_COMPILE=0``, the functions stay CasADi's own: the same values to rounding, only
@@ -152,9 +152,9 @@ def _build(fns: list[ca.Function], key: str, cc: str, lib: str, wait: bool) -> s
 
 def start_pending() -> None:
     """Start the compiles this run left for its end, in the background.  Each runs in its
-    own process group (Ctrl-C at the terminal does not reach it; it outlives the run), in
-    this session, where the lowest priority holds (a session of its own is scheduled as a
-    group beside this one on Linux, whatever its priority)."""
+    own process group (Ctrl-C at the terminal does not reach it; it outlives the run) but
+    in the caller's process session, where the lowest priority holds (Linux schedules a
+    session of its own as a group beside the caller's, whatever its priority)."""
     while _PENDING:
         script = _PENDING.pop(0)
         try:
